@@ -1,0 +1,220 @@
+"""Image decoding and encoding shared by every stage.
+
+All decoders return linear-light RGB ``float32`` arrays of shape (H, W, 3)
+plus the per-pixel "clipped" mask of the encoded values; all problems surface
+as :class:`ImageRejected`, whose message is one line naming the file.
+"""
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageOps
+
+from .atomic import write_with
+
+EXR_SUFFIXES = {".exr"}
+#: Pillow tile raw modes of 16-bit colour PNGs, which Pillow itself truncates to 8 bit.
+_PNG16_RAWMODES = {"RGB;16B", "RGBA;16B", "LA;16B"}
+
+
+class ImageRejected(ValueError):
+    """An input image that cannot be used; ``str(err)`` is a one-line reason."""
+
+
+@dataclass
+class DecodedImage:
+    """Linear RGB pixels and what was learned while decoding them."""
+
+    rgb: np.ndarray  # (H, W, 3) float32, linear light
+    clipped: np.ndarray  # (H, W) bool, any channel at or above the clip threshold
+    notes: list[str] = field(default_factory=list)
+    source_format: str = ""
+    bit_depth: int = 8
+
+
+def srgb_to_linear(x: np.ndarray) -> np.ndarray:
+    """Inverse sRGB transfer function (IEC 61966-2-1) on values in [0, 1]."""
+    x = np.clip(np.asarray(x, dtype=np.float32), 0.0, 1.0)
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def linear_to_srgb(x: np.ndarray) -> np.ndarray:
+    """sRGB transfer function on linear values, clipped to [0, 1]."""
+    x = np.clip(np.asarray(x, dtype=np.float32), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055).astype(np.float32)
+
+
+def _reject(path: Path, reason: str) -> ImageRejected:
+    return ImageRejected(f"{path}: {reason}")
+
+
+def _check_size(path: Path, width: int, height: int, min_px: int, max_megapixels: float) -> None:
+    if min(width, height) < min_px:
+        raise _reject(path, f"image is {width}x{height} px, smaller than the minimum side of {min_px} px")
+    megapixels = width * height / 1e6
+    if megapixels > max_megapixels:
+        raise _reject(
+            path,
+            f"image is {width}x{height} px ({megapixels:.1f} MP), above the limit of {max_megapixels:g} MP "
+            "(prepare.max_megapixels); downscale it first",
+        )
+
+
+def _normalised_channels(img: Image.Image) -> tuple[np.ndarray, int, list[str]]:
+    """Pillow image -> (H, W, C) float32 in [0, 1] of encoded values, bit depth, notes."""
+    notes: list[str] = []
+    mode = img.mode
+    if mode in ("I;16", "I;16B", "I;16L", "I;16N"):
+        return (np.asarray(img, dtype=np.float32) / 65535.0)[..., None], 16, notes
+    if mode == "I":
+        arr = np.asarray(img, dtype=np.float64)
+        scale = 65535.0 if arr.max(initial=0) > 255 else 255.0
+        return (arr / scale).astype(np.float32)[..., None], 16 if scale > 255 else 8, notes
+    if mode == "F":
+        notes.append("float grayscale treated as encoded values in [0, 1]")
+        return np.asarray(img, dtype=np.float32)[..., None], 32, notes
+    if mode == "CMYK":
+        notes.append("CMYK converted to RGB without an ICC profile")
+        img = img.convert("RGB")
+    elif mode in ("RGBA", "LA", "PA") or (mode == "P" and "transparency" in img.info):
+        notes.append("alpha channel ignored")
+        img = img.convert("RGB")
+    elif mode not in ("RGB", "L"):
+        img = img.convert("RGB")
+    encoded = np.asarray(img, dtype=np.float32) / 255.0
+    return (encoded[..., None] if encoded.ndim == 2 else encoded), 8, notes
+
+
+def _decode_png16(path: Path) -> np.ndarray:
+    """16-bit colour PNG pixels via Mitsuba's Bitmap (Pillow truncates them)."""
+    mi = _mitsuba_scalar()
+    bitmap = mi.Bitmap(str(path))
+    return np.array(bitmap, dtype=np.float32)[..., :3] / 65535.0
+
+
+def _mitsuba_scalar():
+    from .runtime import ensure_libllvm
+
+    ensure_libllvm()
+    import mitsuba as mi
+
+    if mi.variant() is None:
+        mi.set_variant("scalar_rgb")
+    return mi
+
+
+def _to_rgb(channels: np.ndarray) -> np.ndarray:
+    if channels.shape[2] == 1:
+        return np.repeat(channels, 3, axis=2)
+    return channels[..., :3]
+
+
+def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold: float) -> DecodedImage:
+    """Decode PNG, JPEG, TIFF (or anything Pillow reads) with EXIF orientation applied."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            img = Image.open(path)
+            _check_size(path, img.width, img.height, min_px, max_megapixels)
+            rawmode = img.tile[0].args if img.tile and isinstance(img.tile[0].args, str) else ""
+            fmt = img.format or "unknown"
+            img.load()
+    except ImageRejected:
+        raise
+    except Image.UnidentifiedImageError:
+        raise _reject(path, "not a readable image (unknown or corrupt format)") from None
+    except (Image.DecompressionBombWarning, Image.DecompressionBombError) as err:
+        raise _reject(path, f"refused as a decompression bomb: {err}") from None
+    except (OSError, SyntaxError, ValueError) as err:
+        raise _reject(path, f"cannot decode {path.suffix or 'file'}: {err}") from None
+    orientation = img.getexif().get(0x0112, 1)
+    if fmt == "PNG" and rawmode in _PNG16_RAWMODES:
+        encoded, depth, notes = _decode_png16(path), 16, []
+        if orientation not in (1, None):
+            notes.append("EXIF orientation of 16-bit colour PNG ignored")
+    else:
+        img = ImageOps.exif_transpose(img)
+        encoded, depth, notes = _normalised_channels(img)
+        if orientation not in (1, None):
+            notes.append(f"EXIF orientation {orientation} applied")
+    encoded = _to_rgb(encoded)
+    if fmt == "TIFF" and depth == 8 and ";16" in rawmode:
+        notes.append("16-bit colour TIFF decoded at 8-bit precision")
+    clipped = np.any(encoded >= clip_threshold, axis=2)
+    rgb = encoded if depth == 32 else srgb_to_linear(encoded)
+    return DecodedImage(rgb=rgb, clipped=clipped, notes=notes, source_format=fmt, bit_depth=depth)
+
+
+def decode_exr(path: Path, min_px: int, max_megapixels: float) -> DecodedImage:
+    """Decode an OpenEXR file (already linear) through Mitsuba's Bitmap."""
+    mi = _mitsuba_scalar()
+    try:
+        bitmap = mi.Bitmap(str(path))
+    except RuntimeError as err:
+        raise _reject(path, f"cannot decode OpenEXR: {str(err).splitlines()[0]}") from None
+    width, height = bitmap.size()
+    _check_size(path, width, height, min_px, max_megapixels)
+    channels = np.array(bitmap, dtype=np.float32)
+    if channels.ndim == 2:
+        channels = channels[..., None]
+    rgb = _to_rgb(channels)
+    bad = int(np.count_nonzero(~np.isfinite(rgb)))
+    if bad:
+        raise _reject(path, f"OpenEXR holds {bad} non-finite values")
+    if np.any(rgb < 0):
+        rgb = np.maximum(rgb, 0.0)
+    return DecodedImage(rgb=rgb, clipped=np.zeros(rgb.shape[:2], bool), source_format="EXR", bit_depth=32)
+
+
+def decode_image(
+    path: str | os.PathLike[str], min_px: int = 64, max_megapixels: float = 100.0, clip_threshold: float = 0.98
+) -> DecodedImage:
+    """Decode any supported image file to linear RGB.
+
+    Raises
+    ------
+    ImageRejected
+        With a one-line reason naming ``path`` when the file is missing, empty,
+        unreadable, too small or too large.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise _reject(path, "file does not exist")
+    if path.stat().st_size == 0:
+        raise _reject(path, "file is empty (0 bytes)")
+    if path.suffix.lower() in EXR_SUFFIXES:
+        return decode_exr(path, min_px, max_megapixels)
+    return decode_raster(path, min_px, max_megapixels, clip_threshold)
+
+
+def write_png(target: str | os.PathLike[str], encoded: np.ndarray, bits: int = 8) -> None:
+    """Atomically write encoded values in [0, 1] as an 8-bit (RGB or gray) or 16-bit gray PNG."""
+    encoded = np.clip(np.nan_to_num(np.asarray(encoded, dtype=np.float64)), 0.0, 1.0)
+    if bits == 16:
+        if encoded.ndim != 2:
+            raise ValueError("16-bit PNGs are written for single-channel data only")
+        image = Image.fromarray(np.round(encoded * 65535).astype(np.uint16))
+    else:
+        image = Image.fromarray(np.round(encoded * 255).astype(np.uint8))
+    write_with(target, lambda tmp: image.save(tmp, format="PNG", optimize=True))
+
+
+def read_png(path: str | os.PathLike[str]) -> np.ndarray:
+    """Read a PNG written by :func:`write_png` back to values in [0, 1]."""
+    with Image.open(path) as img:
+        arr = np.asarray(img)
+    scale = 65535.0 if arr.dtype == np.uint16 else 255.0
+    return arr.astype(np.float32) / scale
+
+
+def write_exr(target: str | os.PathLike[str], data: np.ndarray) -> None:
+    """Atomically write float data (H, W[, C]) as a float32 OpenEXR through Mitsuba."""
+    mi = _mitsuba_scalar()
+    data = np.ascontiguousarray(data, dtype=np.float32)
+    if not np.all(np.isfinite(data)):
+        raise ValueError(f"refusing to write non-finite values to {target}")
+    write_with(target, lambda tmp: mi.Bitmap(data).write(str(tmp)))

@@ -1,0 +1,62 @@
+"""Check that regenerated synthetic images reproduce the committed dataset.
+
+Ground truth must match exactly (maps bit for bit, the truth record except its
+``provenance``); images within one 8-bit code value (1/255).
+"""
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..atomic import write_text
+from ..imageio import read_png
+from .generate import truth_paths
+
+IMAGE_TOLERANCE = 1.0 / 255.0
+
+
+def truth_record(path: Path) -> dict[str, Any]:
+    """Truth JSON without the provenance block (timings, library paths)."""
+    record = json.loads(path.read_text(encoding="utf-8"))
+    record.pop("provenance", None)
+    return record
+
+
+def compare_image(regenerated: str | os.PathLike[str], committed: str | os.PathLike[str]) -> dict[str, Any]:
+    """Compare one regenerated image and its truth with the committed copy."""
+    new, old = Path(regenerated), Path(committed)
+    new_truth, old_truth = truth_paths(new), truth_paths(old)
+    image_diff = float(np.abs(read_png(new) - read_png(old)).max())
+    maps_equal = all(np.array_equal(read_png(new_truth[k]), read_png(old_truth[k])) for k in ("normal", "height"))
+    fold_equal = np.array_equal(np.load(new_truth["fold"]), np.load(old_truth["fold"]))
+    record_equal = truth_record(new_truth["json"]) == truth_record(old_truth["json"])
+    truth_equal = bool(maps_equal and fold_equal and record_equal)
+    return {
+        "image_id": new.stem,
+        "max_image_diff_255": round(image_diff * 255, 3),
+        "truth_identical": truth_equal,
+        "reproduced": bool(truth_equal and image_diff <= IMAGE_TOLERANCE + 1e-6),
+    }
+
+
+def compare_datasets(regenerated_images: Iterable[str | os.PathLike[str]], committed_root: str | os.PathLike[str]) -> list[dict[str, Any]]:
+    """Compare every regenerated ``<root>/<class>/<id>.png`` with ``committed_root/<class>/<id>.png``."""
+    rows = []
+    for image in map(Path, regenerated_images):
+        committed = Path(committed_root) / image.parent.name / image.name
+        if not committed.is_file():
+            rows.append({"image_id": image.stem, "max_image_diff_255": -1.0, "truth_identical": False, "reproduced": False})
+            continue
+        rows.append(compare_image(image, committed))
+    return rows
+
+
+def write_report(rows: list[dict[str, Any]], target: str | os.PathLike[str]) -> None:
+    """Write the comparison as TSV."""
+    write_text(target, pd.DataFrame(rows).to_csv(sep="\t", index=False, lineterminator="\n"))

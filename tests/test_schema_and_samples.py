@@ -1,0 +1,101 @@
+"""Config schema and sample-sheet validation, and the folder-tree sheet builder."""
+from __future__ import annotations
+
+import pytest
+import yaml
+from conftest import ROOT, SCHEMAS
+
+from clothscope.samples import load_sample_sheet, sheet_from_folder, sheet_to_tsv
+from clothscope.schema import InputError, load_schema, validate
+
+CONFIG_SCHEMA = load_schema(SCHEMAS / "config.schema.yaml")
+SAMPLE_SCHEMA = SCHEMAS / "samples.schema.yaml"
+
+
+def write_sheet(tmp_path, text):
+    path = tmp_path / "samples.tsv"
+    path.write_text(text)
+    return path
+
+
+def test_committed_config_is_valid_and_documents_every_key():
+    config = validate(yaml.safe_load((ROOT / "config/config.yaml").read_text()), CONFIG_SCHEMA, "config")
+    assert config["prepare"]["working_resolution"] == 256
+    text = (ROOT / "config/config.yaml").read_text()
+    for section in ("prepare", "synthesize"):
+        for key in CONFIG_SCHEMA["properties"][section]["properties"]:
+            line = next(line for line in text.splitlines() if line.strip().startswith(f"{key}:"))
+            assert "#" in line, f"config key {section}.{key} has no comment"
+
+
+def test_config_defaults_are_filled():
+    config = validate({}, CONFIG_SCHEMA, "config")
+    assert config["variant"] == "auto"
+    assert config["prepare"]["clip_threshold"] == 0.98
+    assert config["synthesize"]["spp"] == 64
+
+
+@pytest.mark.parametrize(
+    "bad, fragment",
+    [
+        ({"variant": "cuda_spectral"}, "variant"),
+        ({"prepare": {"working_resolution": 8}}, "prepare.working_resolution"),
+        ({"prepare": {"typo": 1}}, "prepare"),
+        ({"unknown_key": 1}, "unknown_key"),
+    ],
+)
+def test_config_errors_are_one_line(bad, fragment):
+    with pytest.raises(InputError) as err:
+        validate(bad, CONFIG_SCHEMA, "config/config.yaml")
+    message = str(err.value)
+    assert "\n" not in message and message.startswith("config/config.yaml") and fragment in message
+
+
+def test_default_sheet_loads_with_every_file(tmp_path):
+    sheet = load_sample_sheet(ROOT / "config/samples.tsv", SAMPLE_SCHEMA)
+    assert len(sheet) == 42 and sheet["fabric_class"].nunique() == 7
+
+
+@pytest.mark.parametrize(
+    "body, fragment",
+    [
+        ("image_id\tpath\na\t{img}\na\t{img}\n", "duplicate image_id"),
+        ("image_id\tpath\na\tmissing.png\n", "does not exist"),
+        ("image_id\tpath\tcolour\na\t{img}\tred\n", "unknown column"),
+        ("image_id\tpath\nbad id\t{img}\n", "does not match"),
+        ("image_id\tpath\tfabric_class\na\t{img}\tCanvas!\n", "fabric_class"),
+        ("image_id\nx\n", "'path' is a required property"),
+        ("image_id\tpath\n", "no rows"),
+    ],
+)
+def test_sheet_errors_name_file_and_problem(tmp_path, body, fragment):
+    img = tmp_path / "x.png"
+    img.write_bytes(b"x")
+    path = write_sheet(tmp_path, body.format(img=img))
+    with pytest.raises(InputError) as err:
+        load_sample_sheet(path, SAMPLE_SCHEMA)
+    message = str(err.value)
+    assert str(path) in message and fragment in message and "\n" not in message
+
+
+def test_empty_class_marks_a_query(tmp_path):
+    img = tmp_path / "x.png"
+    img.write_bytes(b"x")
+    sheet = load_sample_sheet(write_sheet(tmp_path, f"image_id\tpath\tfabric_class\nq1\t{img}\t\n"), SAMPLE_SCHEMA)
+    assert sheet.loc["q1", "fabric_class"] == "" and sheet.loc["q1", "source"] == ""
+
+
+def test_sheet_from_folder_tree(tmp_path):
+    for rel in ("Canvas/one.png", "canvas-2/b c.jpg", "query.tif", "Canvas/one.truth-normal.png", "notes.txt"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_bytes(b"x")
+    sheet = sheet_from_folder(tmp_path)
+    assert sorted(sheet["image_id"]) == ["canvas_2_b_c", "canvas_one", "query"]
+    assert dict(zip(sheet["image_id"], sheet["fabric_class"]))["query"] == ""
+    path = write_sheet(tmp_path, sheet_to_tsv(sheet))
+    assert len(load_sample_sheet(path, SAMPLE_SCHEMA)) == 3
+
+
+def test_sheet_from_empty_folder_is_an_error(tmp_path):
+    with pytest.raises(InputError, match="no images found"):
+        sheet_from_folder(tmp_path)

@@ -1,0 +1,57 @@
+"""The Snakemake workflow as a new user meets it: dry run and lint on a fresh clone, and a run on broken files."""
+from __future__ import annotations
+
+import re
+
+import pytest
+from conftest import broken_and_valid_files, run_snakemake
+
+import pandas as pd
+
+
+def job_counts(stdout: str) -> dict[str, int]:
+    """Parse snakemake's 'Job stats' table."""
+    counts = {}
+    for line in stdout.split("Job stats:", 1)[-1].splitlines():
+        match = re.match(r"^(\w+)\s+(\d+)$", line.strip())
+        if match:
+            counts[match.group(1)] = int(match.group(2))
+    return counts
+
+
+def test_dry_run_plans_one_job_per_image_per_stage(fresh_clone):
+    result = run_snakemake(fresh_clone, "-n", "--cores", "2")
+    assert result.returncode == 0, result.stderr[-2000:]
+    counts = job_counts(result.stdout)
+    assert counts["prepare"] == 42 and counts["rejection_report"] == 1 and counts["all"] == 1
+
+
+def test_lint_is_clean(fresh_clone):
+    result = run_snakemake(fresh_clone, "--lint")
+    assert result.returncode == 0 and "Congratulations" in result.stdout + result.stderr, result.stdout[-3000:]
+
+
+def test_bad_sample_sheet_stops_before_any_job_with_one_line(fresh_clone, tmp_path):
+    sheet = tmp_path / "s.tsv"
+    sheet.write_text("image_id\tpath\na\tnowhere.png\n")
+    result = run_snakemake(fresh_clone, "-n", "--cores", "1", "--config", f"samples={sheet}")
+    assert result.returncode != 0
+    assert f"clothscope: error: {sheet} line 2: image 'a': file nowhere.png does not exist" in result.stderr
+
+
+@pytest.mark.slow
+def test_broken_files_are_reported_and_valid_ones_proceed(fresh_clone, tmp_path):
+    files = broken_and_valid_files(tmp_path / "photos")
+    sheet = tmp_path / "samples.tsv"
+    sheet.write_text("image_id\tpath\n" + "".join(f"{stem}\t{path}\n" for stem, (path, _) in files.items()))
+    results = tmp_path / "results"
+    result = run_snakemake(fresh_clone, "--cores", "2", "--config", f"samples={sheet}", f"results={results}")
+    assert result.returncode == 0, result.stderr[-3000:]
+    rejected = pd.read_csv(results / "reports" / "rejected.tsv", sep="\t")
+    bad = {stem for stem, (_, valid) in files.items() if not valid}
+    assert set(rejected["image_id"]) == bad
+    for _, row in rejected.iterrows():
+        assert row["path"] in row["reason"] and "\n" not in row["reason"]
+    for stem, (_, valid) in files.items():
+        if valid:
+            assert (results / "prepared" / stem / "image.exr").is_file(), stem

@@ -1,0 +1,24 @@
+# Stage 0: decode, orient, linearise, crop and resize each photo; mark clipped pixels.
+# A bad image is recorded as rejected (status.json) and does not fail the job.
+
+
+rule prepare:
+    input:
+        image_path,
+    output:
+        directory(os.path.join(RESULTS, "prepared", "{image}")),
+    params:
+        settings=config["prepare"],
+        variant=config["variant"],
+    log:
+        os.path.join(RESULTS, "logs", "prepare", "{image}.log"),
+    benchmark:
+        os.path.join(RESULTS, "benchmarks", "prepare", "{image}.tsv")
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=5,
+    conda:
+        "../../environment.yml"
+    script:
+        "../scripts/prepare.py"

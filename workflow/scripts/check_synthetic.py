@@ -1,0 +1,9 @@
+"""Snakemake job: compare regenerated synthetic images with the committed set."""
+from clothscope.joblog import job_log
+from clothscope.synth.verify import compare_datasets, write_report
+
+with job_log(snakemake.log[0], "check_synthetic") as log:
+    rows = compare_datasets(snakemake.input.images, snakemake.params.committed)
+    write_report(rows, snakemake.output[0])
+    failed = [row["image_id"] for row in rows if not row["reproduced"]]
+    log.info("%d images compared, %d not reproduced: %s", len(rows), len(failed), ", ".join(failed) or "none")

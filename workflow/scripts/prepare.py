@@ -1,0 +1,12 @@
+"""Snakemake job: prepare one image (logic in clothscope.prepare)."""
+from clothscope.joblog import job_log
+from clothscope.prepare import PrepareSettings, prepare_image
+
+with job_log(snakemake.log[0], "prepare") as log:
+    record = prepare_image(
+        snakemake.wildcards.image,
+        snakemake.input[0],
+        snakemake.output[0],
+        PrepareSettings(**snakemake.params.settings),
+    )
+    log.info("%s: %s %s", record["image_id"], record["status"], record["reason"])
