@@ -114,6 +114,8 @@ def test_every_broken_file_is_rejected_with_one_line(tmp_path):
             decode_image(path)
         message = str(err.value)
         assert message.startswith(str(path)) and "\n" not in message, message
+        if stem == "huge":
+            assert "12000x9000" in message and "max_megapixels" in message
 
 
 def test_prepare_image_accepts_and_rejects(tmp_path):

@@ -115,9 +115,12 @@ def _to_rgb(channels: np.ndarray) -> np.ndarray:
 
 def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold: float) -> DecodedImage:
     """Decode PNG, JPEG, TIFF (or anything Pillow reads) with EXIF orientation applied."""
+    # Our own size limit (checked from the header, before any pixel is decoded)
+    # replaces Pillow's decompression-bomb guard, so the message names the setting.
+    pillow_limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
     try:
         with warnings.catch_warnings():
-            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             img = Image.open(path)
             _check_size(path, img.width, img.height, min_px, max_megapixels)
             rawmode = img.tile[0].args if img.tile and isinstance(img.tile[0].args, str) else ""
@@ -127,10 +130,10 @@ def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold
         raise
     except Image.UnidentifiedImageError:
         raise _reject(path, "not a readable image (unknown or corrupt format)") from None
-    except (Image.DecompressionBombWarning, Image.DecompressionBombError) as err:
-        raise _reject(path, f"refused as a decompression bomb: {err}") from None
     except (OSError, SyntaxError, ValueError) as err:
         raise _reject(path, f"cannot decode {path.suffix or 'file'}: {err}") from None
+    finally:
+        Image.MAX_IMAGE_PIXELS = pillow_limit
     orientation = img.getexif().get(0x0112, 1)
     if fmt == "PNG" and rawmode in _PNG16_RAWMODES:
         encoded, depth, notes = _decode_png16(path), 16, []

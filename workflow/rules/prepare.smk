@@ -9,7 +9,6 @@ rule prepare:
         directory(os.path.join(RESULTS, "prepared", "{image}")),
     params:
         settings=config["prepare"],
-        variant=config["variant"],
     log:
         os.path.join(RESULTS, "logs", "prepare", "{image}.log"),
     benchmark:
