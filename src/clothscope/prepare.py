@@ -7,6 +7,7 @@ with a one-line reason instead.
 """
 from __future__ import annotations
 
+import json
 import os
 import traceback
 from dataclasses import asdict, dataclass
@@ -113,6 +114,4 @@ def prepare_image(image_id: str, path: str | os.PathLike[str], out_dir: str | os
 
 def read_status(prepared_dir: str | os.PathLike[str]) -> dict[str, Any]:
     """Read the status record of a prepared image folder."""
-    import json
-
     return json.loads((Path(prepared_dir) / STATUS_FILE).read_text(encoding="utf-8"))
