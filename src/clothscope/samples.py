@@ -22,6 +22,12 @@ IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr"}
 TRUTH_MARKER = ".truth"
 
 
+def duplicate_ids(sheet: pd.DataFrame) -> list[str]:
+    """Image ids that occur more than once, each listed once."""
+    ids = sheet["image_id"]
+    return ids[ids.duplicated()].unique().tolist()
+
+
 def _read_table(path: Path) -> pd.DataFrame:
     try:
         table = pd.read_csv(path, sep="\t", dtype=str, keep_default_na=False, comment="#")
@@ -67,7 +73,7 @@ def load_sample_sheet(path: str | os.PathLike[str], schema_path: str | os.PathLi
         cleaned = {k: v.strip() for k, v in record.items() if not (k in ("fabric_class", "dye_color", "source") and v.strip() == "")}
         rows.append(validate(cleaned, schema, f"{path} line {line}"))
     sheet = pd.DataFrame(rows, columns=COLUMNS)
-    duplicated = sheet["image_id"][sheet["image_id"].duplicated()].unique().tolist()
+    duplicated = duplicate_ids(sheet)
     if duplicated:
         raise InputError(f"{path}: duplicate image_id(s): {', '.join(duplicated)}")
     if check_files:
@@ -107,7 +113,7 @@ def sheet_from_folder(root: str | os.PathLike[str], source: str = "") -> pd.Data
     if not rows:
         raise InputError(f"{root}: no images found (looked for {', '.join(sorted(IMAGE_SUFFIXES))})")
     sheet = pd.DataFrame(rows, columns=COLUMNS)
-    duplicated = sheet["image_id"][sheet["image_id"].duplicated()].unique().tolist()
+    duplicated = duplicate_ids(sheet)
     if duplicated:
         raise InputError(f"{root}: images map to the same id(s): {', '.join(duplicated)}; rename them")
     return sheet
