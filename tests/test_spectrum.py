@@ -1,0 +1,233 @@
+"""Normal-map spectrum analysis (Algorithm 2): properties, gratings, real ground truth, plots."""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from conftest import SYNTHETIC
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from clothscope.imageio import read_png
+from clothscope.spectrum import SpectrumSettings, analyse_normal_map, extra_features, plot_analysis
+from clothscope.synth.generate import decode_normal
+
+#: Settings used at the small property-test sizes: a 2-bin DC disc, a 3-bin filter at N = 64.
+SMALL = SpectrumSettings(n_peaks=2, alpha=2.0, dc_radius=8.0, peak_size=12.0, reference_resolution=256)
+#: The same with the paper's R_m normalisation and peak count.
+SMALL_PAPER = SMALL.paper()
+FEATURE_KEYS = {"r_1", "r_2", "z_1", "z_2", "n_peaks"}
+
+
+def _all_finite(values: dict[str, float]) -> bool:
+    return all(math.isfinite(v) for v in values.values())
+
+
+def grating(size: int, frequency: float, angle_deg: float, amplitude: float = 0.1) -> np.ndarray:
+    """A cosine grating of ``frequency`` cycles per map width, as a z map."""
+    y, x = np.mgrid[0:size, 0:size].astype(float)
+    theta = math.radians(angle_deg)
+    return 0.9 + amplitude * np.cos(2 * math.pi * frequency * (x * math.cos(theta) + y * math.sin(theta)) / size)
+
+
+@pytest.mark.parametrize("spectrum_settings", [SMALL, SMALL_PAPER], ids=["default", "paper"])
+@settings(max_examples=40, deadline=None)
+@given(arrays(np.float64, st.sampled_from([(32, 32), (48, 48), (64, 64)]), elements=st.floats(-1.0, 1.0, allow_nan=False)))
+def test_any_finite_map_gives_finite_features(spectrum_settings, z):
+    result = analyse_normal_map(z, spectrum_settings)
+    assert set(result.features) == FEATURE_KEYS
+    assert _all_finite(result.features) and _all_finite(extra_features(result))
+    assert 0 <= result.features["n_peaks"] <= len(result.candidates) <= z.size
+    assert all(0.0 <= result.features[k] <= 1.0 for k in ("z_1", "z_2"))
+    assert all(result.features[k] >= 0.0 for k in ("r_1", "r_2"))
+    top = max((p.snr for p in result.candidates), default=0.0)
+    strong = [p for p in result.candidates if p.snr >= spectrum_settings.strong_fraction * top]
+    # The paper's R_m bounds every radius; the default's bounds the strong peaks' radii.
+    bounded = result.candidates if spectrum_settings.radius_normalisation == "max" else strong
+    assert all(0.0 <= p.radius_norm <= 1.0 for p in bounded)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(-1.0, 1.0), st.sampled_from([16, 33, 64]))
+def test_constant_map_has_no_peaks(value, size):
+    result = analyse_normal_map(np.full((size, size), value), SMALL)
+    assert result.features == {"r_1": 0.0, "r_2": 0.0, "z_1": 0.0, "z_2": 0.0, "n_peaks": 0.0}
+    assert result.dominant_period_px is None and result.peaks == ()
+    assert _all_finite(extra_features(result))
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_gaussian_noise_gives_finite_features_and_few_peaks(seed):
+    z = np.random.default_rng(seed).normal(0.9, 0.05, (64, 64))
+    result = analyse_normal_map(z, SpectrumSettings(n_peaks=2, alpha=3.0, dc_radius=8.0, peak_size=12.0, reference_resolution=256))
+    assert _all_finite(result.features) and _all_finite(extra_features(result))
+    # A 3-bin local-maximum window over a ~3200-bin half annulus: a grating gives 1 peak, noise only a few dozen.
+    assert result.features["n_peaks"] <= 40
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.0, 180.0), st.floats(0.0, 1.0), st.sampled_from([64, 96]))
+def test_grating_peak_at_its_frequency(angle, position, size):
+    dc = SMALL.dc_radius_bins(size)
+    frequency = 1.5 * dc + position * (0.8 * size / 2 - 1.5 * dc)
+    result = analyse_normal_map(grating(size, frequency, angle), SMALL)
+    assert result.peaks, "a clean grating must give a peak"
+    strongest = result.peaks[0]
+    assert abs(strongest.radius_bins - frequency) <= 1.0
+    assert result.features["z_1"] == 1.0 and result.features["r_1"] > 0
+    assert result.dominant_period_px == pytest.approx(size / frequency, rel=1.0 / frequency + 1e-9)
+
+
+def test_grating_is_counted_once_not_with_its_mirror():
+    result = analyse_normal_map(grating(64, 12.0, 30.0), SMALL)
+    assert result.features["n_peaks"] == 1.0
+    assert result.features["r_2"] == 0.0 and result.features["z_2"] == 0.0
+
+
+def test_accepts_normal_vectors_and_z_maps_alike():
+    z = grating(64, 10.0, 20.0)
+    normal = np.stack([np.sqrt(1 - z**2), np.zeros_like(z), z], axis=-1)
+    assert analyse_normal_map(normal, SMALL).features == analyse_normal_map(z, SMALL).features
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_map_is_refused(bad):
+    z = grating(32, 6.0, 0.0)
+    z[3, 5] = bad
+    with pytest.raises(ValueError, match="normal map contains NaN or infinite values"):
+        analyse_normal_map(z, SMALL)
+
+
+@pytest.mark.parametrize(
+    ("shape", "message"),
+    [((32, 48), "must be square"), ((8, 8), "smaller than the minimum"), ((4, 32, 32), r"shape \(H, W, 3\)"), ((32,), "shape")],
+)
+def test_bad_shapes_are_refused(shape, message):
+    with pytest.raises(ValueError, match=message):
+        analyse_normal_map(np.zeros(shape), SMALL)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"n_peaks": 0}, "n_peaks"),
+        ({"n_peaks": 1.5}, "n_peaks"),
+        ({"alpha": 0.0}, "alpha"),
+        ({"alpha": float("nan")}, "alpha"),
+        ({"dc_radius": -1.0}, "dc_radius"),
+        ({"peak_size": 0.0}, "peak_size"),
+        ({"window": "hamming"}, "window"),
+        ({"reference_resolution": 4}, "reference_resolution"),
+        ({"radius_normalisation": "median"}, "radius_normalisation"),
+        ({"peak_count": "some"}, "peak_count"),
+        ({"strong_fraction": 0.0}, "strong_fraction"),
+        ({"strong_fraction": 1.5}, "strong_fraction"),
+        ({"strong_fraction": float("nan")}, "strong_fraction"),
+    ],
+)
+def test_settings_are_validated(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        SpectrumSettings(**kwargs)
+
+
+def test_settings_scale_with_map_size():
+    s = SpectrumSettings(dc_radius=20.0, peak_size=15.0, reference_resolution=1024)
+    assert s.dc_radius_bins(256) == pytest.approx(5.0) and s.dc_radius_bins(1024) == pytest.approx(20.0)
+    assert s.peak_size_bins(1024) == 15 and s.peak_size_bins(256) == 3 and s.peak_size_bins(16) == 1
+    assert all(s.peak_size_bins(n) % 2 == 1 for n in range(16, 2048, 37))
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.floats(1e-3, 1e3), st.floats(-5.0, 5.0))
+def test_features_invariant_to_scaling_and_offset_of_the_map(gain, offset):
+    rng = np.random.default_rng(1)
+    z = grating(64, 9.0, 25.0) + 0.5 * grating(64, 18.0, 115.0) + rng.normal(0, 0.01, (64, 64))
+    base = analyse_normal_map(z, SMALL).features
+    scaled = analyse_normal_map(gain * z + offset, SMALL).features
+    assert scaled.keys() == base.keys()
+    for key in base:
+        assert scaled[key] == pytest.approx(base[key], rel=1e-6, abs=1e-9), key
+
+
+def _weave(f: float) -> np.ndarray:
+    """Fundamental, a 0.6 2nd harmonic (orthogonal) and a weak 0.3 3rd harmonic."""
+    return grating(128, f, 10.0) + 0.6 * grating(128, 2 * f, 100.0) + 0.3 * grating(128, 3 * f, 10.0)
+
+
+# The paper counts all three peaks; the default counts the two strong ones
+# (the 3rd harmonic's height is ~0.3 of the fundamental's, below strong_fraction 0.5).
+@pytest.mark.parametrize(("spectrum_settings", "count"), [(SMALL, 2), (SMALL_PAPER, 3)], ids=["default", "paper"])
+def test_normalised_radii_are_invariant_to_the_frequency_scale(spectrum_settings, count):
+    """Doubling every frequency (same weave, half the period) keeps r_k = radius / R."""
+    low = analyse_normal_map(_weave(10.0), spectrum_settings).features
+    high = analyse_normal_map(_weave(20.0), spectrum_settings).features
+    assert low["n_peaks"] == high["n_peaks"] == count
+    for key in ("r_1", "r_2"):
+        assert high[key] == pytest.approx(low[key], abs=0.02)
+
+
+def test_paper_normalises_by_the_largest_radius_default_by_the_largest_strong_radius():
+    paper = analyse_normal_map(_weave(10.0), SMALL_PAPER)
+    default = analyse_normal_map(_weave(10.0), SMALL)
+    radii = sorted(p.radius for p in paper.candidates)
+    assert len(radii) == 3
+    # Both keep the fundamental (strongest) and the 2nd harmonic first, with the same heights.
+    assert [p.radius for p in paper.peaks] == [p.radius for p in default.peaks] == radii[:2]
+    assert paper.features["z_2"] == default.features["z_2"]
+    # Paper: R_m = 3rd harmonic; default: R = 2nd harmonic (the 3rd is weak).
+    assert paper.features["r_1"] == pytest.approx(radii[0] / radii[2])
+    assert paper.features["r_2"] == pytest.approx(radii[1] / radii[2])
+    assert default.features["r_1"] == pytest.approx(radii[0] / radii[1])
+    assert default.features["r_2"] == pytest.approx(1.0)
+    weak = [p for p in default.candidates if p.radius == radii[2]][0]
+    assert weak.height < SMALL.strong_fraction and weak.radius_norm > 1.0
+
+
+def test_strongest_normalisation_and_strong_fraction():
+    strongest = analyse_normal_map(_weave(10.0), replace(SMALL, radius_normalisation="strongest")).features
+    assert strongest["r_1"] == 1.0 and strongest["r_2"] == pytest.approx(2.0, abs=0.1)
+    # A low enough strong fraction makes every peak strong: the paper's numbers.
+    loose = analyse_normal_map(_weave(10.0), replace(SMALL, strong_fraction=0.05)).features
+    assert loose == analyse_normal_map(_weave(10.0), SMALL_PAPER).features
+
+
+def test_paper_settings_keep_the_other_knobs():
+    s = SpectrumSettings(n_peaks=3, alpha=3.0, dc_radius=10.0, peak_size=25.0, window="none", reference_resolution=512)
+    paper = s.paper()
+    assert (paper.radius_normalisation, paper.peak_count) == ("max", "all")
+    assert replace(paper, radius_normalisation=s.radius_normalisation, peak_count=s.peak_count) == s
+    assert (SpectrumSettings().radius_normalisation, SpectrumSettings().peak_count) == ("strong_max", "strong")
+
+
+def _truth(stem: str) -> tuple[np.ndarray, dict]:
+    fabric = stem.rsplit("_", 1)[0]
+    normal = decode_normal(read_png(SYNTHETIC / fabric / f"{stem}.truth-normal.png"))
+    return normal, json.loads((SYNTHETIC / fabric / f"{stem}.truth.json").read_text())
+
+
+@pytest.mark.parametrize(("stem", "harmonic"), [("broadcloth_ivory", 1), ("canvas_navy", 1), ("cotton_gauze_ivory", 2)])
+def test_dominant_period_matches_ground_truth(stem, harmonic):
+    normal, truth = _truth(stem)
+    result = analyse_normal_map(normal, SpectrumSettings())
+    assert result.dominant_period_px == pytest.approx(truth["thread_period_px"] / harmonic, rel=0.05)
+    extras = extra_features(result)
+    assert _all_finite(extras) and all(key.startswith("x_") for key in extras)
+
+
+def test_plain_weave_fundamentals_are_orthogonal():
+    normal, _ = _truth("broadcloth_navy")
+    assert extra_features(analyse_normal_map(normal, SpectrumSettings()))["x_angle_deg"] == pytest.approx(90.0, abs=3.0)
+
+
+def test_plot_analysis_writes_a_png(tmp_path):
+    normal, _ = _truth("canvas_navy")
+    target = tmp_path / "plots" / "canvas.png"
+    plot_analysis(analyse_normal_map(normal, SpectrumSettings()), target, title="canvas_navy")
+    data = target.read_bytes()
+    assert len(data) > 1000 and data[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [p.name for p in target.parent.iterdir()] == ["canvas.png"]
