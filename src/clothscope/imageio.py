@@ -220,4 +220,14 @@ def write_exr(target: str | os.PathLike[str], data: np.ndarray) -> None:
     data = np.ascontiguousarray(data, dtype=np.float32)
     if not np.all(np.isfinite(data)):
         raise ValueError(f"refusing to write non-finite values to {target}")
-    write_with(target, lambda tmp: mi.Bitmap(data).write(str(tmp)))
+    import drjit as dr
+
+    # Mitsuba 3.9.1's EXR writer waits on the Dr.Jit thread pool: with 1 thread it hangs forever.
+    threads = dr.thread_count()
+    if threads < 2:
+        dr.set_thread_count(2)
+    try:
+        write_with(target, lambda tmp: mi.Bitmap(data).write(str(tmp)))
+    finally:
+        if threads < 2:
+            dr.set_thread_count(threads)

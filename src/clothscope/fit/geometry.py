@@ -1,0 +1,113 @@
+"""Stage 1, ``fit_geometry``: vertex depths of a 64 x 64 plane with Large Steps.
+
+Only depth moves (x and y stay on their grid, so vertices cannot drift in
+plane) and the mean depth is pinned to 0 (so depth cannot trade against
+brightness through the light's falloff). Fitted on a box-filtered 64 px target,
+where thread detail is averaged away and only the folds remain.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from .effects import Evidence, geometry_evidence, plan_stage
+from .light import estimate_light, lambert_falloff, plane_points
+from .loop import LoopSettings, optimise
+from .model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
+from .stage import Target, at_resolution, image_loss, logit, render, sigmoid
+
+
+@dataclass(frozen=True)
+class GeometrySettings:
+    """Knobs of the geometry stage (``fit.geometry`` in the config)."""
+
+    resolution: int = 64
+    spp: int = 16
+    iterations: int = 150
+    learning_rate: float = 0.05
+    vertices_per_side: int = 64
+    large_steps_lambda: float = 1000.0
+    fov_deg: float = 25.0
+    margin: float = 0.06
+    initial_roughness: float = 0.6
+    initial_specular: float = 0.5
+
+
+def initial_base_color(target: Target, camera: FitCamera, light: PointLight) -> np.ndarray:
+    """Lambertian albedo that explains the target's mean brightness under ``light``."""
+    x, y = plane_points(camera, target.resolution)
+    shade = light.intensity * lambert_falloff(light, x, y) / np.pi
+    w = target.weight
+    albedo = [(target.image[..., c] * w).sum() / max((shade * w).sum(), 1e-9) for c in range(3)]
+    return np.clip(np.array(albedo, dtype=np.float32), 0.01, 0.99)
+
+
+def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full_effects: bool,
+                 log: logging.Logger) -> tuple[FitScene, dict[str, Any]]:
+    """Fit camera-facing depth of the plane mesh to ``photo``; returns the fit and its record."""
+    camera = FitCamera(settings.fov_deg)
+    light, light_residual = estimate_light(photo.image, photo.weight, camera)
+    log.info("light: polar %.0f deg, azimuth %.0f deg (relative residual %.3f)", light.polar_deg, light.azimuth_deg, light_residual)
+    target = at_resolution(photo, settings.resolution)
+    material = Material(tuple(float(c) for c in initial_base_color(target, camera, light)),
+                        settings.initial_specular, settings.initial_roughness)
+    fit = FitScene(camera, light, plane_grid(camera, settings.vertices_per_side, settings.margin), settings.margin, material)
+    plan = plan_stage("geometry", Evidence(), full_effects)
+    log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
+    loop, steps = run_vertex_loop(mi, fit, target, plan, settings, log)
+    fit.grid = grid_from(mi, steps, loop.best["u"], fit.grid)
+    fit.material = Material(tuple(float(c) for c in 1 / (1 + np.exp(-loop.best["color"]))), material.specular, material.roughness)
+    evidence = geometry_evidence(fit.grid, camera)
+    plans = [plan.as_record()]
+    warnings = list(loop.warnings)
+    curve = [row | {"phase": "vertices"} for row in loop.curve]
+    refined = plan_stage("geometry", evidence, full_effects)
+    if refined.integrator != plan.integrator:
+        log.info("fitted geometry calls for %s (%s): refining", refined.integrator, "; ".join(refined.reasons))
+        second, steps = run_vertex_loop(mi, fit, target, refined, settings, log, iterations=max(settings.iterations // 3, 1))
+        fit.grid = grid_from(mi, steps, second.best["u"], fit.grid)
+        plans.append(refined.as_record())
+        warnings += second.warnings
+        curve += [row | {"phase": "vertices-refine"} for row in second.curve]
+    record = {"light_residual": light_residual, "effects": plans, "evidence": evidence.__dict__,
+              "warnings": warnings, "stopped": loop.stopped, "final_loss": loop.best_loss,
+              "settings": settings.__dict__, "curve": curve}
+    return fit, record
+
+
+def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, settings: GeometrySettings,
+                    log: logging.Logger, iterations: int | None = None) -> tuple[Any, Any]:
+    """Large Steps descent on the depth of every vertex, plus the base colour."""
+    import drjit as dr
+
+    scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), sample_border=plan.projective)
+    params = mi.traverse(scene)
+    steps = mi.ad.LargeSteps(params[BSDF_KEYS["vertices"]], params["cloth.faces"], settings.large_steps_lambda)
+    start = mi.Float(fit.grid.reshape(-1).astype(np.float32))
+    u0 = np.array(steps.to_differential(start), dtype=np.float32)
+    xy = dr.unravel(mi.Point3f, start)
+
+    def loss_fn(opt, it):
+        v = dr.unravel(mi.Point3f, steps.from_differential(opt["u"]))
+        z = v.z - dr.mean(v.z)
+        params[BSDF_KEYS["vertices"]] = dr.ravel(mi.Point3f(xy.x, xy.y, z))
+        params[BSDF_KEYS["base_color"]] = mi.Color3f(*(sigmoid(dr.gather(mi.Float, opt["color"], i)) for i in range(3)))
+        params.update()
+        return image_loss(mi, render(mi, scene, params, settings.spp, it), target)
+
+    initial = {"u": u0, "color": logit(np.array(fit.material.base_color))}
+    loop_settings = LoopSettings(iterations if iterations is not None else settings.iterations, settings.learning_rate)
+    return optimise(mi, initial, loss_fn, loop_settings, log, "geometry"), steps
+
+
+def grid_from(mi: ModuleType, steps: Any, u: np.ndarray, base: np.ndarray) -> np.ndarray:
+    """(n, n, 3) grid of the differential coordinates ``u``: x, y of ``base``, depth with mean 0."""
+    v = np.array(steps.from_differential(mi.Float(u)), dtype=np.float64).reshape(base.shape)
+    grid = base.copy()
+    grid[..., 2] = v[..., 2] - v[..., 2].mean()
+    return grid

@@ -1,0 +1,128 @@
+"""One Snakemake job per stage and image: read inputs, fit, write every output atomically.
+
+A stage whose input was rejected or skipped upstream writes a ``state.json``
+with ``status: skipped`` and its reason instead of failing, so one bad image
+never sinks the run. Any other failure is recorded the same way with
+``status: failed`` and a one-line reason (the traceback goes to the log).
+"""
+from __future__ import annotations
+
+import logging
+import os
+import time
+import traceback
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..atomic import atomic_dir, write_json, write_text
+from ..imageio import write_exr, write_png
+from ..runtime import mitsuba_for, runtime_metadata
+from .effects import geometry_evidence, plan_stage
+from .geometry import GeometrySettings, fit_geometry
+from .material import MaterialSettings, fit_material
+from .model import FitScene, build_scene
+from .normals import NormalSettings, fit_normals, height_to_normals_np
+from .stage import (STATE_FILE, SkipStage, Target, at_resolution, load_prepared, load_state, psnr, save_state,
+                    scene_xml, write_comparison, write_loss_curve)
+
+MESH_FILE = "mesh.ply"
+PREVIEW_SPP = 32
+
+
+def _run_job(out_dir: str | os.PathLike[str], stage: str, log: logging.Logger,
+             body: Callable[[Path], dict[str, Any]]) -> dict[str, Any]:
+    """Run ``body(tmp_dir)`` inside an atomic output folder; record skips and failures."""
+    started = time.perf_counter()
+    with atomic_dir(out_dir) as tmp:
+        try:
+            record = body(tmp) | {"status": "fitted"}
+        except SkipStage as skip:
+            record = {"status": "skipped", "reason": str(skip)}
+        except Exception as err:  # noqa: BLE001 - one image must not sink the run
+            log.error("%s", traceback.format_exc())
+            record = {"status": "failed", "reason": f"{stage}: {type(err).__name__}: {(str(err).splitlines() or [''])[0]}"}
+        record |= {"stage": stage, "seconds": round(time.perf_counter() - started, 3)}
+        if record["status"] != "fitted":
+            log.warning("%s %s: %s", stage, record["status"], record["reason"])
+            write_json(tmp / STATE_FILE, record)
+    return record
+
+
+def _render_fit(mi: Any, fit: FitScene, resolution: int, texture: np.ndarray | None = None) -> np.ndarray:
+    scene = build_scene(mi, fit, resolution, {"type": "direct"}, normal_texture=texture)
+    return np.array(mi.render(scene, spp=PREVIEW_SPP, seed=7), dtype=np.float32)[..., :3]
+
+
+def _write_common(tmp: Path, mi: Any, fit: FitScene, photo: Target, curve: list[dict[str, float]],
+                  record: dict[str, Any], texture: np.ndarray | None, normal_file: str | None) -> dict[str, Any]:
+    """Outputs every stage writes: loss curve, side-by-side PNG, mesh, scene file and state."""
+    rendered = _render_fit(mi, fit, photo.resolution, texture)
+    record["psnr_db"] = psnr(rendered, photo)
+    write_loss_curve(tmp / "loss.csv", curve)
+    write_comparison(tmp / "compare.png", photo, rendered)
+    mesh = build_scene(mi, fit, 8, {"type": "direct"}).shapes()[0]
+    mesh.write_ply(str(tmp / MESH_FILE))
+    write_text(tmp / "scene.xml", scene_xml(fit, MESH_FILE, normal_file, photo.resolution))
+    save_state(tmp, fit, record | {"runtime": runtime_metadata(mi)})
+    return record
+
+
+def geometry_job(prepared_dir: str, out_dir: str, settings: GeometrySettings, variant: str, threads: int,
+                 full_effects: bool, log: logging.Logger) -> dict[str, Any]:
+    """``fit_geometry`` for one image."""
+    def body(tmp: Path) -> dict[str, Any]:
+        photo = load_prepared(prepared_dir)
+        mi = mitsuba_for(variant, threads)
+        fit, record = fit_geometry(mi, photo, settings, full_effects, log)
+        curve = record.pop("curve")
+        return _write_common(tmp, mi, fit, photo, curve, record, None, None)
+
+    return _run_job(out_dir, "geometry", log, body)
+
+
+def material_job(prepared_dir: str, geometry_dir: str, out_dir: str, settings: MaterialSettings, variant: str,
+                 threads: int, full_effects: bool, log: logging.Logger) -> dict[str, Any]:
+    """``fit_material`` for one image."""
+    def body(tmp: Path) -> dict[str, Any]:
+        fit, _ = load_state(geometry_dir)
+        photo = load_prepared(prepared_dir)
+        mi = mitsuba_for(variant, threads)
+        plan = plan_stage("material", geometry_evidence(fit.grid, fit.camera), full_effects)
+        log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
+        fit.material, loop = fit_material(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log)
+        record = {"effects": [plan.as_record()], "warnings": loop.warnings, "stopped": loop.stopped,
+                  "final_loss": loop.best_loss, "settings": settings.__dict__, "material": fit.material.as_dict()}
+        write_json(tmp / "material.json", {"material": fit.material.as_dict(), "effects": [plan.as_record()],
+                                           "warnings": loop.warnings})
+        return _write_common(tmp, mi, fit, photo, [r | {"phase": "material"} for r in loop.curve], record, None, None)
+
+    return _run_job(out_dir, "material", log, body)
+
+
+def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: NormalSettings, variant: str,
+                threads: int, full_effects: bool, log: logging.Logger) -> dict[str, Any]:
+    """``fit_normals`` for one image: normal map, height map, preview and the refined BSDF."""
+    def body(tmp: Path) -> dict[str, Any]:
+        fit, _ = load_state(material_dir)
+        photo = load_prepared(prepared_dir)
+        mi = mitsuba_for(variant, threads)
+        plan = plan_stage("normals", geometry_evidence(fit.grid, fit.camera), full_effects)
+        log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
+        height, fit.material, loops = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log)
+        normals = height_to_normals_np(height).astype(np.float32)
+        write_exr(tmp / "normal.exr", normals)
+        write_exr(tmp / "height.exr", np.repeat(height[..., None], 3, axis=2).astype(np.float32))
+        write_png(tmp / "normal.png", normals * 0.5 + 0.5)
+        texels_per_pixel = settings.texture / (photo.resolution * (1 + fit.margin))
+        record = {"effects": [plan.as_record()], "warnings": loops[0].warnings + loops[1].warnings,
+                  "stopped": [loops[0].stopped, loops[1].stopped], "final_loss": min(l.best_loss for l in loops),
+                  "settings": settings.__dict__, "material": fit.material.as_dict(), "texels_per_pixel": texels_per_pixel}
+        write_json(tmp / "material.json", {"material": fit.material.as_dict(), "effects": [plan.as_record()],
+                                           "refined_jointly_with_normal_map": True, "texels_per_pixel": texels_per_pixel})
+        curve = [r | {"phase": "normals"} for r in loops[0].curve] + [r | {"phase": "normals+bsdf"} for r in loops[1].curve]
+        return _write_common(tmp, mi, fit, photo, curve, record, normals * 0.5 + 0.5, "normal.png")
+
+    return _run_job(out_dir, "normals", log, body)

@@ -1,0 +1,117 @@
+"""The optimisation loop every stage shares: render, loss, backward, step, clamp, update.
+
+It never lets a non-finite number through: a non-finite or climbing loss, or a
+non-finite parameter, restores the best parameters so far, halves the step and
+records a warning. A plateau rule stops early.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+Variables = dict[str, np.ndarray]
+
+
+@dataclass(frozen=True)
+class LoopSettings:
+    """Iterations, step size and stopping rule of one optimisation."""
+
+    iterations: int
+    learning_rate: float
+    patience: int = 0  # 0: no plateau rule
+    min_improvement: float = 1e-3  # relative loss drop that counts as progress
+    max_restarts: int = 4
+    climb_factor: float = 3.0  # loss above this times the best counts as a blow-up
+
+    def __post_init__(self) -> None:
+        if self.iterations < 0:
+            raise ValueError(f"iterations must be >= 0, got {self.iterations}")
+        if not self.learning_rate > 0:
+            raise ValueError(f"learning_rate must be > 0, got {self.learning_rate}")
+
+
+@dataclass
+class LoopResult:
+    """Best variables, the loss curve and any warnings."""
+
+    best: Variables
+    best_loss: float
+    curve: list[dict[str, float]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    stopped: str = "iterations"
+    seconds: float = 0.0
+
+
+def _finite(values: Variables) -> bool:
+    return all(np.all(np.isfinite(v)) for v in values.values())
+
+
+def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int], Any], settings: LoopSettings,
+             log: logging.Logger, name: str, lr_scale: dict[str, float] | None = None) -> LoopResult:
+    """Minimise ``loss_fn(variables, iteration)`` with Adam from ``initial``.
+
+    Parameters
+    ----------
+    mi : the Mitsuba module (variant set).
+    initial : name -> flat float32 array of each optimised variable.
+    loss_fn : builds the scene from the optimiser's variables (a dict-like of
+        differentiable arrays), renders and returns a scalar differentiable loss.
+    lr_scale : per-variable learning-rate multipliers.
+    """
+    import drjit as dr
+
+    lr = settings.learning_rate
+    scale = lr_scale or {}
+    opt = mi.ad.Adam(lr=lr, params={k: mi.Float(v) for k, v in initial.items()})
+    for key, factor in scale.items():
+        opt.set_learning_rate({key: lr * factor})
+    result = LoopResult(best={k: v.copy() for k, v in initial.items()}, best_loss=math.inf)
+    restarts, since_progress, started = 0, 0, time.perf_counter()
+    for it in range(settings.iterations):
+        loss = loss_fn(opt, it)
+        value = float(loss.array[0] if hasattr(loss, "array") else loss[0])
+        blow_up = not math.isfinite(value) or (math.isfinite(result.best_loss) and value > settings.climb_factor * result.best_loss)
+        if blow_up:
+            restarts += 1
+            result.warnings.append(f"{name}: iteration {it}: loss {value:.3g} (best {result.best_loss:.3g}); restarting with step {lr / 2:.3g}")
+            log.warning(result.warnings[-1])
+            if restarts > settings.max_restarts:
+                result.stopped = "gave up after restarts"
+                break
+            lr /= 2
+            opt = mi.ad.Adam(lr=lr, params={k: mi.Float(v) for k, v in result.best.items()})
+            for key, factor in scale.items():
+                opt.set_learning_rate({key: lr * factor})
+            continue
+        current = {k: np.array(opt[k], dtype=np.float32) for k in initial}
+        if value < result.best_loss * (1 - settings.min_improvement):
+            since_progress = 0
+        else:
+            since_progress += 1
+        if value < result.best_loss and _finite(current):
+            result.best, result.best_loss = current, value
+        result.curve.append({"iteration": it, "loss": value, "learning_rate": lr, "seconds": time.perf_counter() - started})
+        if settings.patience and since_progress >= settings.patience:
+            result.stopped = f"plateau: no {settings.min_improvement:.1%} improvement in {settings.patience} iterations"
+            break
+        dr.backward(loss)
+        opt.step()
+        for key in initial:  # a non-finite gradient must not poison the parameters
+            if not dr.all(dr.isfinite(opt[key]), axis=None):
+                opt[key] = mi.Float(result.best[key])
+                result.warnings.append(f"{name}: iteration {it}: non-finite {key} after the step; reset to best")
+                log.warning(result.warnings[-1])
+    result.seconds = time.perf_counter() - started
+    if not math.isfinite(result.best_loss):
+        result.warnings.append(f"{name}: no finite loss was ever reached; keeping the initial values")
+        result.best = {k: v.copy() for k, v in initial.items()}
+        result.best_loss = 0.0
+    log.info("%s: %d iterations, best loss %.4g, stopped: %s, %.1f s", name, len(result.curve), result.best_loss,
+             result.stopped, result.seconds)
+    return result

@@ -1,0 +1,69 @@
+"""Stage 2, ``fit_material``: one base colour, one specular value and one roughness.
+
+Each parameter lives in an unbounded latent space (logistic), so it can never
+leave its valid range: colour and specular in (0, 1), roughness in
+(``min_roughness``, 1). The geometry of stage 1 stays fixed.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from .effects import Plan
+from .loop import LoopSettings, optimise
+from .model import BSDF_KEYS, FitScene, Material, build_scene
+from .stage import Target, image_loss, logit, render, sigmoid
+
+
+@dataclass(frozen=True)
+class MaterialSettings:
+    """Knobs of the material stage (``fit.material`` in the config)."""
+
+    resolution: int = 128
+    spp: int = 4
+    iterations: int = 60
+    learning_rate: float = 0.05
+    min_roughness: float = 0.05
+
+
+def material_latents(material: Material, min_roughness: float) -> dict[str, np.ndarray]:
+    """Unbounded latent variables of a material."""
+    rough = (max(material.roughness, min_roughness + 1e-3) - min_roughness) / (1 - min_roughness)
+    return {"color": logit(np.array(material.base_color)), "specular": logit(np.array([material.specular])),
+            "roughness": logit(np.array([rough]))}
+
+
+def material_from_latents(latents: dict[str, np.ndarray], min_roughness: float) -> Material:
+    """Inverse of :func:`material_latents` on plain arrays."""
+    s = lambda x: 1 / (1 + np.exp(-np.asarray(x, dtype=np.float64)))  # noqa: E731
+    return Material(tuple(float(c) for c in s(latents["color"])), float(s(latents["specular"])[0]),
+                    float(min_roughness + (1 - min_roughness) * s(latents["roughness"])[0]))
+
+
+def apply_material(mi: ModuleType, params: Any, latents: Any, min_roughness: float) -> None:
+    """Write differentiable material latents into the scene parameters."""
+    import drjit as dr
+
+    params[BSDF_KEYS["base_color"]] = mi.Color3f(*(sigmoid(dr.gather(mi.Float, latents["color"], i)) for i in range(3)))
+    params[BSDF_KEYS["specular"]] = sigmoid(latents["specular"])
+    params[BSDF_KEYS["roughness"]] = min_roughness + (1 - min_roughness) * sigmoid(latents["roughness"])
+
+
+def fit_material(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: MaterialSettings,
+                 log: logging.Logger) -> tuple[Material, Any]:
+    """Fit the BSDF of ``fit`` (geometry fixed) to ``target``; returns the material and the loop result."""
+    scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), sample_border=plan.projective)
+    params = mi.traverse(scene)
+
+    def loss_fn(opt, it):
+        apply_material(mi, params, opt, settings.min_roughness)
+        params.update()
+        return image_loss(mi, render(mi, scene, params, settings.spp, it), target)
+
+    loop = optimise(mi, material_latents(fit.material, settings.min_roughness), loss_fn,
+                    LoopSettings(settings.iterations, settings.learning_rate), log, "material")
+    return material_from_latents(loop.best, settings.min_roughness), loop

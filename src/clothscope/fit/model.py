@@ -1,0 +1,169 @@
+"""The scene every fit stage renders: a camera, one point light and a plane mesh.
+
+Camera model: a pinhole camera at distance ``CAMERA_DISTANCE`` looking straight
+down at the cloth with a fixed field of view (a close-up photo). The cloth is a
+64 x 64 vertex plane spanning the view at z = 0 plus a margin, so its outline
+is never in view. Light model: one point light whose direction is estimated
+from the photo's low-frequency shading (:mod:`.light`) and whose intensity
+follows the calibration convention "a white Lambertian patch at the centre
+reads 0.85"; base colours are reported relative to that exposure.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from ..synth.scene import cloth_mesh, grid_faces, grid_normals
+
+CAMERA_DISTANCE = 3.0
+WHITE_PATCH_READING = 0.85
+#: principled-BSDF keys of the cloth inside the ``normalmap`` wrapper
+BSDF_KEYS = {
+    "base_color": "cloth.bsdf.nested_bsdf.base_color.value",
+    "specular": "cloth.bsdf.nested_bsdf.specular",
+    "roughness": "cloth.bsdf.nested_bsdf.roughness.value",
+    "normalmap": "cloth.bsdf.normalmap.data",
+    "vertices": "cloth.vertex_positions",
+}
+
+
+@dataclass(frozen=True)
+class FitCamera:
+    """Pinhole camera on the +z axis looking at the origin, +y up in the image."""
+
+    fov_deg: float = 25.0
+    distance: float = CAMERA_DISTANCE
+
+    @property
+    def view_width(self) -> float:
+        """Width of the view at z = 0, world units."""
+        return 2.0 * self.distance * np.tan(np.deg2rad(self.fov_deg) / 2.0)
+
+
+@dataclass(frozen=True)
+class PointLight:
+    """A point light given by its direction from the cloth centre and distance."""
+
+    polar_deg: float
+    azimuth_deg: float
+    distance: float = 3.0
+
+    @property
+    def position(self) -> tuple[float, float, float]:
+        polar, azimuth = np.deg2rad(self.polar_deg), np.deg2rad(self.azimuth_deg)
+        return (
+            float(self.distance * np.sin(polar) * np.cos(azimuth)),
+            float(self.distance * np.sin(polar) * np.sin(azimuth)),
+            float(self.distance * np.cos(polar)),
+        )
+
+    @property
+    def intensity(self) -> float:
+        """Radiant intensity under the white-patch calibration convention."""
+        return float(WHITE_PATCH_READING * np.pi * self.distance**2 / np.cos(np.deg2rad(self.polar_deg)))
+
+
+@dataclass
+class Material:
+    """The one BSDF of the cloth (principled, linear RGB)."""
+
+    base_color: tuple[float, float, float] = (0.5, 0.5, 0.5)
+    specular: float = 0.5
+    roughness: float = 0.6
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass
+class FitScene:
+    """Everything needed to rebuild the fit scene; what the stages pass on."""
+
+    camera: FitCamera
+    light: PointLight
+    grid: np.ndarray  # (n, n, 3) vertex positions
+    margin: float
+    material: Material = field(default_factory=Material)
+
+    def to_record(self) -> dict[str, Any]:
+        return {
+            "camera": asdict(self.camera) | {"view_width": self.camera.view_width},
+            "light": asdict(self.light) | {"position": list(self.light.position), "intensity": self.light.intensity},
+            "margin": self.margin,
+            "material": self.material.as_dict(),
+            "mesh_vertices_per_side": int(self.grid.shape[0]),
+        }
+
+
+def plane_grid(camera: FitCamera, n: int = 64, margin: float = 0.06) -> np.ndarray:
+    """(n, n, 3) flat grid covering the view plus ``margin`` (fraction) on each side, rows along +y."""
+    half = camera.view_width / 2.0 * (1.0 + margin)
+    coords = np.linspace(-half, half, n)
+    x, y = np.meshgrid(coords, coords)
+    return np.stack([x, y, np.zeros_like(x)], axis=-1)
+
+
+def grid_texcoords(n: int) -> np.ndarray:
+    """(n, n, 2) texture coordinates: u along +x, v along -y, so texture row 0 lies at +y like an image."""
+    t = np.linspace(0.0, 1.0, n)
+    u, v = np.meshgrid(t, t[::-1])
+    return np.stack([u, v], axis=-1)
+
+
+def flat_normal_texture(size: int) -> np.ndarray:
+    """Encoded (0.5 n + 0.5) flat normal map of ``size`` x ``size`` texels."""
+    texture = np.full((size, size, 3), 0.5, dtype=np.float32)
+    texture[..., 2] = 1.0
+    return texture
+
+
+def cloth_bsdf_dict(mi: ModuleType, material: Material, normal_texture: np.ndarray) -> dict[str, Any]:
+    """Principled BSDF wrapped in a normal map (raw bilinear texture)."""
+    return {
+        "type": "normalmap",
+        "normalmap": {"type": "bitmap", "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp",
+                      "data": mi.TensorXf(np.ascontiguousarray(normal_texture, dtype=np.float32))},
+        "bsdf": {
+            "type": "principled",
+            "base_color": {"type": "rgb", "value": [float(c) for c in material.base_color]},
+            "specular": float(material.specular),
+            "roughness": float(material.roughness),
+        },
+    }
+
+
+def build_scene(mi: ModuleType, fit: FitScene, resolution: int, integrator: dict[str, Any],
+                normal_texture: np.ndarray | None = None, sample_border: bool = False) -> Any:
+    """Load the Mitsuba scene of a fit at ``resolution`` px with the given integrator."""
+    texture = flat_normal_texture(8) if normal_texture is None else normal_texture
+    bsdf = mi.load_dict(cloth_bsdf_dict(mi, fit.material, texture))
+    n = fit.grid.shape[0]
+    mesh = cloth_mesh(mi, fit.grid, grid_texcoords(n), np.ones((n, n), dtype=bool), bsdf)
+    return mi.load_dict({
+        "type": "scene",
+        "integrator": integrator,
+        "sensor": {
+            "type": "perspective",
+            "fov": fit.camera.fov_deg,
+            "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, fit.camera.distance], target=[0, 0, 0], up=[0, 1, 0]),
+            "film": {"type": "hdrfilm", "width": resolution, "height": resolution, "pixel_format": "rgb",
+                     "rfilter": {"type": "box"}, "sample_border": sample_border},
+            "sampler": {"type": "independent", "sample_count": 4},
+        },
+        "light": {"type": "point", "position": list(fit.light.position),
+                  "intensity": {"type": "rgb", "value": fit.light.intensity}},
+        "cloth": mesh,
+    })
+
+
+def mesh_faces(n: int) -> np.ndarray:
+    """Triangles of the n x n grid (shared with the synthetic scene)."""
+    return grid_faces(n)
+
+
+def vertex_normals(grid: np.ndarray) -> np.ndarray:
+    """Per-vertex unit normals of an (n, n, 3) grid."""
+    return grid_normals(grid)

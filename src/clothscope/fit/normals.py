@@ -1,0 +1,93 @@
+"""Stage 3, ``fit_normals``: a normal map of thread-level detail, then a joint BSDF refinement.
+
+The optimised variable is a height map ``h`` (in texel widths). Normals are
+``normalize(-dh/dx, -dh/dy, 1)`` from central differences, so a normal can
+never be zero, in the surface plane or flipped. Phase 1 fits the height map
+alone with a plateau stopping rule (the map drifts into noise if left
+running); phase 2 refines height map and BSDF jointly, which is what makes
+roughness recoverable (it cannot be fitted while the normal map is flat).
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from .effects import Plan
+from .loop import LoopSettings, optimise
+from .material import apply_material, material_from_latents, material_latents
+from .model import BSDF_KEYS, FitScene, Material, build_scene, flat_normal_texture
+from .stage import Target, image_loss, render
+
+
+@dataclass(frozen=True)
+class NormalSettings:
+    """Knobs of the normal-map stage (``fit.normals`` in the config)."""
+
+    resolution: int = 256
+    spp: int = 4
+    texture: int = 256
+    iterations: int = 80
+    learning_rate: float = 0.05
+    patience: int = 10
+    min_improvement: float = 0.002
+    joint_iterations: int = 60
+    joint_learning_rate: float = 0.02
+    min_roughness: float = 0.05
+
+
+def neighbour_indices(size: int) -> dict[str, np.ndarray]:
+    """Flat indices of each texel's left/right/up/down neighbour (clamped at the border)."""
+    rows, cols = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
+    flat = lambda r, c: (np.clip(r, 0, size - 1) * size + np.clip(c, 0, size - 1)).reshape(-1).astype(np.uint32)  # noqa: E731
+    return {"left": flat(rows, cols - 1), "right": flat(rows, cols + 1), "up": flat(rows - 1, cols), "down": flat(rows + 1, cols)}
+
+
+def height_to_normals_np(height: np.ndarray) -> np.ndarray:
+    """(T, T, 3) unit tangent-space normals of a height map (rows toward -y), numpy version."""
+    padded = np.pad(height, 1, mode="edge")
+    dx = (padded[1:-1, 2:] - padded[1:-1, :-2]) / 2
+    dy = -(padded[2:, 1:-1] - padded[:-2, 1:-1]) / 2  # row index grows toward -y
+    normal = np.stack([-dx, -dy, np.ones_like(dx)], axis=-1)
+    return normal / np.linalg.norm(normal, axis=-1, keepdims=True)
+
+
+def normal_texture(mi: ModuleType, height: Any, neighbours: dict[str, Any], size: int) -> Any:
+    """Differentiable encoded normal texture (0.5 n + 0.5) of a flat height array."""
+    import drjit as dr
+
+    g = lambda key: dr.gather(mi.Float, height, neighbours[key])  # noqa: E731
+    dx = (g("right") - g("left")) * 0.5
+    dy = -(g("down") - g("up")) * 0.5
+    n = dr.normalize(mi.Vector3f(-dx, -dy, 1.0))
+    return mi.TensorXf(dr.ravel(n * 0.5 + 0.5), shape=(size, size, 3))
+
+
+def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: NormalSettings,
+                log: logging.Logger) -> tuple[np.ndarray, Material, list[Any]]:
+    """Fit the height map, then height map and BSDF jointly; returns height, material and loop results."""
+    size = settings.texture
+    scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), normal_texture=flat_normal_texture(size),
+                        sample_border=plan.projective)
+    params = mi.traverse(scene)
+    neighbours = {k: mi.UInt32(v) for k, v in neighbour_indices(size).items()}
+    fixed = material_latents(fit.material, settings.min_roughness)
+
+    def loss_fn(opt, it):
+        params[BSDF_KEYS["normalmap"]] = normal_texture(mi, opt["height"], neighbours, size)
+        apply_material(mi, params, {k: (opt[k] if k in opt else mi.Float(v)) for k, v in fixed.items()}, settings.min_roughness)
+        params.update()
+        return image_loss(mi, render(mi, scene, params, settings.spp, it), target)
+
+    height0 = {"height": np.zeros(size * size, dtype=np.float32)}
+    first = optimise(mi, height0, loss_fn, LoopSettings(settings.iterations, settings.learning_rate, settings.patience,
+                                                        settings.min_improvement), log, "normals")
+    joint_start = first.best | fixed
+    second = optimise(mi, joint_start, loss_fn, LoopSettings(settings.joint_iterations, settings.joint_learning_rate,
+                                                             settings.patience, settings.min_improvement), log, "normals+bsdf")
+    best = second.best if second.best_loss <= first.best_loss else joint_start
+    material = material_from_latents({k: best[k] for k in fixed}, settings.min_roughness)
+    return best["height"].reshape(size, size).astype(np.float64), material, [first, second]

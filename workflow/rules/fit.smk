@@ -1,0 +1,80 @@
+# Stages 1-3: inverse rendering of each prepared photo, one cached stage per rule.
+# Changing one stage's settings (fit.<stage> in the config) reruns that stage and what follows.
+
+
+def fit_dir(stage):
+    return os.path.join(RESULTS, "fit", "{image}", stage)
+
+
+rule fit_geometry:
+    input:
+        prepared=os.path.join(RESULTS, "prepared", "{image}"),
+    output:
+        directory(fit_dir("geometry")),
+    params:
+        settings=config["fit"]["geometry"],
+        variant=config["variant"],
+        full_effects=config["fit"]["full_effects"],
+    log:
+        os.path.join(RESULTS, "logs", "fit_geometry", "{image}.log"),
+    benchmark:
+        os.path.join(RESULTS, "benchmarks", "fit_geometry", "{image}.tsv")
+    threads: config["fit"]["threads"]
+    resources:
+        mem_mb=2000,
+        runtime=10,
+        gpu=GPUS,
+    conda:
+        "../../environment.yml"
+    script:
+        "../scripts/fit_stage.py"
+
+
+rule fit_material:
+    input:
+        prepared=os.path.join(RESULTS, "prepared", "{image}"),
+        previous=fit_dir("geometry"),
+    output:
+        directory(fit_dir("material")),
+    params:
+        settings=config["fit"]["material"],
+        variant=config["variant"],
+        full_effects=config["fit"]["full_effects"],
+    log:
+        os.path.join(RESULTS, "logs", "fit_material", "{image}.log"),
+    benchmark:
+        os.path.join(RESULTS, "benchmarks", "fit_material", "{image}.tsv")
+    threads: config["fit"]["threads"]
+    resources:
+        mem_mb=2000,
+        runtime=10,
+        gpu=GPUS,
+    conda:
+        "../../environment.yml"
+    script:
+        "../scripts/fit_stage.py"
+
+
+rule fit_normals:
+    input:
+        prepared=os.path.join(RESULTS, "prepared", "{image}"),
+        previous=fit_dir("material"),
+    output:
+        directory(fit_dir("normals")),
+    params:
+        settings=config["fit"]["normals"],
+        variant=config["variant"],
+        full_effects=config["fit"]["full_effects"],
+    log:
+        os.path.join(RESULTS, "logs", "fit_normals", "{image}.log"),
+    benchmark:
+        os.path.join(RESULTS, "benchmarks", "fit_normals", "{image}.tsv")
+    threads: config["fit"]["threads"]
+    resources:
+        mem_mb=2000,
+        runtime=10,
+        gpu=GPUS,
+    conda:
+        "../../environment.yml"
+    script:
+        "../scripts/fit_stage.py"
