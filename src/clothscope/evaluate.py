@@ -8,6 +8,9 @@ period is compared through the spectra of the fitted and true normal maps.
 """
 from __future__ import annotations
 
+import json
+import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -83,3 +86,123 @@ def fold_normal_error(truth: dict[str, Any], grid: np.ndarray, fov_deg: float, d
     """Median view-space angle (deg) between the true fold normals and the fitted mesh normals."""
     error = angular_error_deg(truth_view_normals(truth, resolution), fit_view_normals(grid, fov_deg, distance, resolution))
     return float(np.median(error))
+
+
+def period_error(fitted_period_px: float | None, truth: dict[str, Any]) -> float | None:
+    """Relative error of a fitted thread period against the true one (knits: wale or course, the closer).
+
+    None when the cloth has no period (velvet); 1.0 when a period exists but none was found.
+    """
+    periods = [p for p in (truth.get("thread_period_px"), truth.get("course_period_px")) if p]
+    if not periods:
+        return None
+    if not fitted_period_px:
+        return 1.0
+    return float(min(abs(fitted_period_px - p) / p for p in periods))
+
+
+def fitted_period_px(normals: np.ndarray, texels_per_pixel: float) -> float | None:
+    """Thread period (image px) from the spectrum of a fitted normal map."""
+    from .spectrum import SpectrumSettings, analyse_normal_map
+
+    result = analyse_normal_map(normals, SpectrumSettings())
+    return None if result.dominant_period_px is None else float(result.dominant_period_px / texels_per_pixel)
+
+
+def benchmark_seconds(path: str | os.PathLike[str]) -> tuple[float, float]:
+    """(wall seconds, peak RSS MB) from a Snakemake ``benchmark:`` file; NaN-free (0 when absent)."""
+    import pandas as pd
+
+    if not Path(path).exists():
+        return 0.0, 0.0
+    row = pd.read_csv(path, sep="\t").iloc[-1]
+    rss = pd.to_numeric(row.get("max_rss", 0.0), errors="coerce")
+    return float(row["s"]), float(0.0 if not np.isfinite(rss) else rss)
+
+
+def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: str | os.PathLike[str],
+                 benchmarks: dict[str, str]) -> dict[str, Any]:
+    """Every error of one image's fit against its ground truth, plus stage times and memory."""
+    from .fit.stage import STATE_FILE, load_state
+    from .imageio import read_exr
+
+    truth = json.loads(Path(truth_json).read_text(encoding="utf-8"))
+    row: dict[str, Any] = {"image_id": image_id, "fabric_class": truth["fabric_class"]}
+    normals_dir = Path(fit_root) / "normals"
+    state = json.loads((normals_dir / STATE_FILE).read_text(encoding="utf-8"))
+    row["status"] = state["status"]
+    for stage, path in benchmarks.items():
+        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = benchmark_seconds(path)
+    row["total_s"] = sum(row[f"{stage}_s"] for stage in benchmarks)
+    row["max_rss_mb"] = max(row[f"{stage}_max_rss_mb"] for stage in benchmarks)
+    if state["status"] != "fitted":
+        return row | {"reason": state.get("reason", "")}
+    fit, _ = load_state(normals_dir)
+    material = fit.material
+    from .fit.model import plane_grid
+
+    normals = read_exr(normals_dir / "normal.exr")
+    period = fitted_period_px(normals, state["texels_per_pixel"])
+    row.update(
+        psnr_db=state["psnr_db"],
+        fold_normal_error_deg=fold_normal_error(truth, fit.grid, fit.camera.fov_deg, fit.camera.distance),
+        flat_fold_normal_error_deg=fold_normal_error(truth, plane_grid(fit.camera, fit.grid.shape[0], fit.margin),
+                                                     fit.camera.fov_deg, fit.camera.distance),
+        roughness=material.roughness, roughness_true=truth["roughness"],
+        roughness_error=abs(material.roughness - truth["roughness"]),
+        specular=material.specular, specular_true=truth["specular"],
+        base_color_error=float(np.mean(np.abs(np.array(material.base_color) - np.array(truth["base_color_linear"])))),
+        period_px=period if period is not None else 0.0,
+        period_true_px=truth.get("thread_period_px") or 0.0,
+        effects=";".join(sorted({p["integrator"] for p in state.get("effects", [])})),
+        warnings=len(state.get("warnings", [])),
+    )
+    error = period_error(period, truth)
+    row["period_error"] = -1.0 if error is None else error  # -1: no period to measure (pile)
+    return row
+
+
+#: issue targets: (column, statistic, comparison, bound)
+TARGETS = (
+    ("psnr_db", "median", ">=", 30.0),
+    ("fold_normal_error_deg", "median", "<=", 7.0),
+    ("roughness_error", "median", "<=", 0.05),
+    ("base_color_error", "median", "<=", 0.05),
+    ("total_s", "median", "<=", 30.0),
+    ("max_rss_mb", "max", "<=", 2048.0),
+)
+
+
+def summarise(table: Any) -> str:
+    """Markdown summary: medians against targets, the period hit rate, and per-class medians."""
+    fitted = table[table["status"] == "fitted"]
+    lines = ["# Inverse renderer accuracy on the synthetic set", "",
+             f"{len(fitted)} of {len(table)} images fitted.", "", "| metric | statistic | value | target | met |", "|---|---|---|---|---|"]
+    for column, stat, op, bound in TARGETS:
+        value = float(getattr(fitted[column], stat)()) if len(fitted) else 0.0
+        met = value >= bound if op == ">=" else value <= bound
+        lines.append(f"| {column} | {stat} | {value:.3f} | {op} {bound:g} | {'yes' if met else 'no'} |")
+    periodic = fitted[fitted["period_error"] >= 0]
+    if len(periodic):
+        hit = float((periodic["period_error"] <= 0.05).mean())
+        lines.append(f"| period within 5% | fraction of {len(periodic)} periodic | {hit:.3f} | >= 0.9 | {'yes' if hit >= 0.9 else 'no'} |")
+    lines += ["", "## Medians per class", "", fitted.groupby("fabric_class")[
+        ["psnr_db", "fold_normal_error_deg", "flat_fold_normal_error_deg", "roughness_error", "base_color_error", "period_error", "total_s"]
+    ].median().round(3).to_markdown() if len(fitted) else "(none)", ""]
+    return "\n".join(lines)
+
+
+def write_accuracy_report(images: list[str], fit_dirs: list[str], truth_jsons: list[Any], benchmark_root: str,
+                          table: str, summary: str) -> int:
+    """Evaluate every image and write the CSV table and the Markdown summary atomically."""
+    import pandas as pd
+
+    from .atomic import write_text
+
+    rows = [evaluate_fit(image, fit_dir, truth, {s: os.path.join(benchmark_root, f"fit_{s}", f"{image}.tsv")
+                                                 for s in ("geometry", "material", "normals")})
+            for image, fit_dir, truth in zip(images, fit_dirs, truth_jsons)]
+    frame = pd.DataFrame(rows)
+    write_text(table, frame.to_csv(index=False, float_format="%.6g"))
+    write_text(summary, summarise(frame))
+    return len(rows)

@@ -173,6 +173,13 @@ def decode_exr(path: Path, min_px: int, max_megapixels: float) -> DecodedImage:
     return DecodedImage(rgb=rgb, clipped=np.zeros(rgb.shape[:2], bool), source_format="EXR", bit_depth=32)
 
 
+def read_exr(path: str | os.PathLike[str]) -> np.ndarray:
+    """Read an OpenEXR written by :func:`write_exr` back as raw float32 (H, W, C), signs kept."""
+    mi = _mitsuba_scalar()
+    data = np.array(mi.Bitmap(str(path)), dtype=np.float32)
+    return data[..., None] if data.ndim == 2 else data
+
+
 def decode_image(
     path: str | os.PathLike[str], min_px: int = 64, max_megapixels: float = 100.0, clip_threshold: float = 0.98
 ) -> DecodedImage:

@@ -78,3 +78,33 @@ rule fit_normals:
         "../../environment.yml"
     script:
         "../scripts/fit_stage.py"
+
+
+def images_with_truth():
+    """Sample-sheet images that carry synthetic ground truth (the accuracy report needs it)."""
+    from clothscope.synth.generate import truth_paths
+    from pathlib import Path
+
+    return [i for i in IMAGE_IDS if truth_paths(Path(SAMPLES.loc[i, "path"]))["json"].exists()]
+
+
+rule fit_accuracy:
+    input:
+        fits=expand(fit_dir("normals"), image=images_with_truth()),
+    output:
+        table=os.path.join(RESULTS, "reports", "fit_accuracy.csv"),
+        summary=report(os.path.join(RESULTS, "reports", "fit_accuracy.md"), caption="../report/fit_accuracy.rst", category="Inverse rendering"),
+    params:
+        images=images_with_truth(),
+        truth={i: str(SAMPLES.loc[i, "path"]) for i in images_with_truth()},
+        benchmarks=os.path.join(RESULTS, "benchmarks"),
+    log:
+        os.path.join(RESULTS, "logs", "fit_accuracy.log"),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    conda:
+        "../../environment.yml"
+    script:
+        "../scripts/fit_accuracy.py"

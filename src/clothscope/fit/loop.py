@@ -100,7 +100,7 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
         if settings.patience and since_progress >= settings.patience:
             result.stopped = f"plateau: no {settings.min_improvement:.1%} improvement in {settings.patience} iterations"
             break
-        dr.backward(loss)
+        dr.backward(loss, flags=dr.ADFlag.Default | dr.ADFlag.AllowNoGrad)
         opt.step()
         for key in initial:  # a non-finite gradient must not poison the parameters
             if not dr.all(dr.isfinite(opt[key]), axis=None):

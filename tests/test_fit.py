@@ -1,0 +1,194 @@
+"""Inverse renderer: tiny end-to-end fits, hard cases that must stay finite, gradients, effects plan."""
+from __future__ import annotations
+
+import json
+import logging
+import math
+
+import numpy as np
+import pytest
+
+from clothscope.fit import jobs
+from clothscope.fit.effects import Evidence, geometry_evidence, plan_stage
+from clothscope.fit.geometry import GeometrySettings
+from clothscope.fit.loop import LoopSettings, optimise
+from clothscope.fit.material import MaterialSettings
+from clothscope.fit.model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
+from clothscope.fit.normals import NormalSettings, height_to_normals_np
+from clothscope.imageio import linear_to_srgb, read_exr, write_png
+from clothscope.prepare import PrepareSettings, prepare_image
+from clothscope.runtime import mitsuba_for
+
+from conftest import SYNTHETIC
+
+LOG = logging.getLogger("test_fit")
+TINY = dict(
+    geometry=GeometrySettings(resolution=16, spp=4, iterations=6),
+    material=MaterialSettings(resolution=32, spp=2, iterations=6),
+    normals=NormalSettings(resolution=32, spp=2, texture=32, iterations=6, joint_iterations=6),
+)
+
+
+@pytest.fixture(scope="module")
+def mi():
+    return mitsuba_for("llvm_ad_rgb", 2)
+
+
+def run_tiny_fit(photo_path, tmp_path, full_effects: bool = False) -> dict:
+    """prepare -> geometry -> material -> normals on tiny settings; returns the final state."""
+    prepared, fit = tmp_path / "prepared", tmp_path / "fit"
+    prepare_image("case", photo_path, prepared, PrepareSettings(working_resolution=64))
+    common = dict(variant="llvm_ad_rgb", threads=2, full_effects=full_effects, log=LOG)
+    jobs.geometry_job(str(prepared), str(fit / "geometry"), TINY["geometry"], **common)
+    jobs.material_job(str(prepared), str(fit / "geometry"), str(fit / "material"), TINY["material"], **common)
+    jobs.normals_job(str(prepared), str(fit / "material"), str(fit / "normals"), TINY["normals"], **common)
+    return json.loads((fit / "normals" / "state.json").read_text())
+
+
+def assert_all_finite(state: dict, normals_dir) -> None:
+    """Every number in the state and every texel of the maps is finite; normals are unit and face up."""
+    text = json.dumps(state)
+    assert "NaN" not in text and "Infinity" not in text
+    normals = read_exr(normals_dir / "normal.exr")
+    assert np.all(np.isfinite(normals))
+    assert np.allclose(np.linalg.norm(normals, axis=-1), 1.0, atol=1e-3)
+    assert normals[..., 2].min() > 0.0
+    assert np.all(np.isfinite(read_exr(normals_dir / "height.exr")))
+    m = state["material"]
+    assert 0.05 <= m["roughness"] <= 1.0 and 0.0 <= m["specular"] <= 1.0
+    assert all(0.0 <= c <= 1.0 for c in m["base_color"])
+
+
+def render_case(mi, path, material: Material, light: PointLight, grid: np.ndarray | None = None, gain: float = 1.0) -> None:
+    """Render a 64 px photo of the fit model itself and save it as an 8-bit sRGB PNG."""
+    camera = FitCamera()
+    fit = FitScene(camera, light, plane_grid(camera, 32) if grid is None else grid, 0.06, material)
+    image = np.array(mi.render(build_scene(mi, fit, 64, {"type": "direct"}), spp=16, seed=1))[..., :3] * gain
+    write_png(path, linear_to_srgb(np.clip(image, 0, 1)))
+
+
+def folded_grid(amplitude: float) -> np.ndarray:
+    grid = plane_grid(FitCamera(), 32)
+    grid[..., 2] = amplitude * np.sin(grid[..., 0] * 12.0)
+    return grid
+
+
+@pytest.mark.slow
+def test_tiny_fit_of_a_synthetic_photo_writes_every_output(tmp_path):
+    state = run_tiny_fit(SYNTHETIC / "canvas" / "canvas_red.png", tmp_path)
+    assert state["status"] == "fitted"
+    for stage in ("geometry", "material", "normals"):
+        folder = tmp_path / "fit" / stage
+        for name in ("loss.csv", "compare.png", "scene.xml", "mesh.ply", "state.json"):
+            assert (folder / name).stat().st_size > 0, (stage, name)
+    assert (tmp_path / "fit" / "material" / "material.json").exists()
+    assert state["effects"][0]["integrator"] == "direct"
+    assert state["psnr_db"] > 15.0
+    assert_all_finite(state, tmp_path / "fit" / "normals")
+
+
+HARD_CASES = {
+    "black_cloth": dict(material=Material((0.004, 0.004, 0.005), 0.5, 0.6), light=PointLight(20, 40)),
+    "saturated_white": dict(material=Material((0.95, 0.95, 0.95), 1.0, 0.15), light=PointLight(10, 0), gain=1.0),
+    "grazing_light": dict(material=Material((0.5, 0.3, 0.2), 0.5, 0.5), light=PointLight(82, 120)),
+    "near_mirror": dict(material=Material((0.2, 0.2, 0.6), 1.0, 0.01), light=PointLight(5, 0)),
+    "deep_folds": dict(material=Material((0.6, 0.6, 0.5), 0.5, 0.6), light=PointLight(30, 90), grid=folded_grid(0.35)),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", sorted(HARD_CASES) + ["textureless"])
+def test_hard_cases_stay_finite(mi, tmp_path, case):
+    photo = tmp_path / f"{case}.png"
+    if case == "textureless":
+        write_png(photo, np.full((64, 64, 3), 0.5))
+    else:
+        render_case(mi, photo, **HARD_CASES[case])
+    state = run_tiny_fit(photo, tmp_path)
+    assert state["status"] == "fitted", state.get("reason")
+    if case == "saturated_white":  # some pixels clipped and masked, not all
+        clipped = json.loads((tmp_path / "prepared" / "status.json").read_text())["clipped_fraction"]
+        assert 0.0 < clipped < 0.5
+    assert_all_finite(state, tmp_path / "fit" / "normals")
+
+
+def test_rejected_image_is_skipped_by_every_stage(tmp_path):
+    bad = tmp_path / "bad.png"
+    bad.write_text("not an image")
+    state = run_tiny_fit(bad, tmp_path)
+    assert state["status"] == "skipped"
+    assert "rejected by prepare" in state["reason"]
+
+
+def test_gradients_match_finite_differences(mi):
+    """AD derivative of the rendered image w.r.t. roughness and specular equals central differences."""
+    import drjit as dr
+
+    camera = FitCamera()
+    fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
+    scene = build_scene(mi, fit, 16, {"type": "direct"})
+    params = mi.traverse(scene)
+
+    def mean_pixel(key: str, value) -> object:
+        params[BSDF_KEYS[key]] = value
+        params.update()
+        return dr.mean(mi.render(scene, params, spp=256, seed=3, seed_grad=4).array)
+
+    for key, x0 in (("roughness", 0.4), ("specular", 0.5)):
+        x = mi.Float(x0)
+        dr.enable_grad(x)
+        value = mean_pixel(key, x)
+        dr.backward(value)
+        ad = float(dr.grad(x)[0])
+        h = 1e-2
+        fd = (float(mean_pixel(key, mi.Float(x0 + h))[0]) - float(mean_pixel(key, mi.Float(x0 - h))[0])) / (2 * h)
+        assert math.isfinite(ad) and abs(ad - fd) <= 0.05 * abs(fd) + 1e-5, (key, ad, fd)
+        params[BSDF_KEYS[key]] = mi.Float(x0)
+
+
+def test_loop_restarts_on_non_finite_loss_and_keeps_best(mi):
+    """A loss that turns NaN makes the loop restore the best values, halve the step and warn."""
+    import drjit as dr
+
+    def loss_fn(opt, it):
+        x = opt["x"]
+        loss = dr.sum((x - 3.0) ** 2)
+        return loss * (float("nan") if it == 5 else 1.0)
+
+    result = optimise(mi, {"x": np.zeros(2, np.float32)}, loss_fn, LoopSettings(40, 0.3), LOG, "toy")
+    assert result.warnings and "restarting" in result.warnings[0]
+    assert np.all(np.isfinite(result.best["x"])) and math.isfinite(result.best_loss)
+    assert result.best_loss < 18.0  # improved on the start (x = 0: loss 18)
+
+
+def test_plateau_rule_stops_early(mi):
+    import drjit as dr
+
+    result = optimise(mi, {"x": np.zeros(1, np.float32)}, lambda opt, it: dr.sum(opt["x"] * 0.0 + 1.0),
+                      LoopSettings(100, 0.1, patience=5), LOG, "flat")
+    assert result.stopped.startswith("plateau") and len(result.curve) <= 7
+
+
+def test_effects_plan_simulates_only_what_the_scene_needs():
+    camera = FitCamera()
+    flat = geometry_evidence(plane_grid(camera, 16), camera)
+    assert flat == Evidence(False, False, False)
+    assert plan_stage("geometry", flat).integrator == "direct"
+    assert plan_stage("normals", flat).integrator == "direct"
+    deep = geometry_evidence(folded_grid(0.35), camera)
+    assert deep.facing_folds
+    assert plan_stage("material", deep).integrator == "prb" and plan_stage("material", deep).max_depth == 3
+    occluded = Evidence(self_occlusion=True)
+    assert plan_stage("geometry", occluded).integrator == "direct_projective"
+    assert plan_stage("normals", occluded).integrator == "direct"  # geometry fixed: no visibility gradients
+    full = plan_stage("normals", flat, full_effects=True)
+    assert full.integrator == "prb_projective" and full.max_depth >= 8
+    for plan in (plan_stage("geometry", flat), full):
+        assert not plan.spectral and not plan.polarized
+
+
+def test_height_derived_normals_are_never_flipped_or_in_plane():
+    rng = np.random.default_rng(0)
+    for scale in (0.0, 1.0, 1e3, 1e6):
+        normals = height_to_normals_np(rng.normal(size=(16, 16)) * scale)
+        assert np.all(np.isfinite(normals)) and normals[..., 2].min() > 0.0

@@ -1,0 +1,80 @@
+"""Benchmark: wall time and peak memory of the three fit stages per image, cold and warm kernel cache.
+
+Runs ``snakemake`` on a few synthetic images, one image at a time with both
+cores given to that image (``fit.threads = 2``). The cold pass points HOME at
+an empty folder so Dr.Jit's kernel cache (``~/.drjit``) starts empty; the warm
+pass reruns the same fits with the cache filled. Per-stage seconds and peak
+RSS come from the rules' ``benchmark:`` files.
+
+    .venv/bin/python workflow/benchmarks/fit_timing.py [--images a,b,c] [--out results/bench/fit_timing]
+
+Writes ``<out>/fit_timing.csv`` and ``<out>/fit_timing.md``.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[2]
+DEFAULT_IMAGES = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_gauze_ivory,knit_jersey_charcoal,velvet_ivory"
+STAGES = ("geometry", "material", "normals")
+
+
+def run_image(image: str, results: Path, overlay: Path, home: str) -> float:
+    """Fit one image through snakemake (forcing the fit stages); returns the snakemake wall time."""
+    env = dict(os.environ, HOME=home)
+    started = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", "config/config.yaml", str(overlay),
+                    "--config", f"results={results}", "--forcerun", "fit_geometry", "--quiet", "all", "--",
+                    str(results / "fit" / image / "normals")], cwd=ROOT, env=env, check=True, capture_output=True)
+    return time.perf_counter() - started
+
+
+def stage_rows(image: str, results: Path, cache: str, snakemake_s: float) -> dict[str, float | str]:
+    row: dict[str, float | str] = {"image_id": image, "cache": cache, "snakemake_wall_s": round(snakemake_s, 2)}
+    for stage in STAGES:
+        bench = pd.read_csv(results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv", sep="\t").iloc[-1]
+        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = float(bench["s"]), float(bench["max_rss"])
+    row["fit_s"] = sum(float(row[f"{s}_s"]) for s in STAGES)
+    row["max_rss_mb"] = max(float(row[f"{s}_max_rss_mb"]) for s in STAGES)
+    return row
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--images", default=DEFAULT_IMAGES)
+    parser.add_argument("--out", default="results/bench/fit_timing")
+    args = parser.parse_args()
+    out = (ROOT / args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    overlay = out / "overlay.yaml"
+    overlay.write_text("fit:\n  threads: 2\n")
+    rows = []
+    with tempfile.TemporaryDirectory() as cold_home:
+        for cache, home in (("cold", cold_home), ("warm", cold_home)):
+            for image in args.images.split(","):
+                if cache == "cold":  # every image starts from an empty kernel cache
+                    subprocess.run(["rm", "-rf", os.path.join(cold_home, ".drjit")], check=True)
+                wall = run_image(image, out / "runs", overlay, home)
+                rows.append(stage_rows(image, out / "runs", cache, wall))
+                print(rows[-1], flush=True)
+    table = pd.DataFrame(rows)
+    table.to_csv(out / "fit_timing.csv", index=False)
+    summary = table.groupby("cache")[["geometry_s", "material_s", "normals_s", "fit_s", "snakemake_wall_s", "max_rss_mb"]]
+    text = ["# Fit time per 256 px image (2 cores, one image at a time)", "",
+            "Median over images:", "", summary.median().round(2).to_markdown(), "", "Maximum over images:", "",
+            summary.max().round(2).to_markdown(), ""]
+    (out / "fit_timing.md").write_text("\n".join(text))
+    print("\n".join(text))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
