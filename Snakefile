@@ -3,6 +3,10 @@
 #
 #   synthesize  (optional) re-render the embedded synthetic dataset and check it
 #   prepare     decode each photo into a linear working image, or reject it
+#   fit         inverse rendering: fit_geometry -> fit_material -> fit_normals
+#   features    Fourier features of each normal map (fitted or truth) -> feature_table
+#   classify    QDA: LOOCV reports, model, query predictions, physics JSON;
+#               paper_tables (the paper's 3 experiments) and sweep (settings grid)
 #   reports     list every rejected image
 from snakemake.utils import min_version
 
@@ -15,6 +19,9 @@ configfile: "config/config.yaml"
 include: "workflow/rules/common.smk"
 include: "workflow/rules/synthesize.smk"
 include: "workflow/rules/prepare.smk"
+include: "workflow/rules/fit.smk"
+include: "workflow/rules/features.smk"
+include: "workflow/rules/classify.smk"
 include: "workflow/rules/reports.smk"
 
 
@@ -22,4 +29,8 @@ rule all:
     input:
         prepared_images(),
         rejection_report(),
+        classify_outputs(config["features"]["normal_source"]),
+        physics_outputs(config["features"]["normal_source"]),
+        paper_table_outputs(config["features"]["normal_source"]),
+        fit_accuracy_report() if config["features"]["normal_source"] == "fitted" else [],
     default_target: True

@@ -20,10 +20,25 @@ def job_counts(stdout: str) -> dict[str, int]:
 
 
 def test_dry_run_plans_one_job_per_image_per_stage(fresh_clone):
+    n_images = len(pd.read_csv(fresh_clone / "config" / "samples.tsv", sep="\t", dtype=str))
     result = run_snakemake(fresh_clone, "-n", "--cores", "2")
     assert result.returncode == 0, result.stderr[-2000:]
     counts = job_counts(result.stdout)
-    assert counts["prepare"] == 42 and counts["rejection_report"] == 1 and counts["all"] == 1
+    assert counts["prepare"] == n_images and counts["rejection_report"] == 1 and counts["all"] == 1
+    # default normal_source is fitted: every image is fitted, then gets a feature row
+    for rule in ("fit_geometry", "fit_material", "fit_normals", "features"):
+        assert counts.get(rule) == n_images, rule
+    assert counts["feature_table"] == counts["classify"] == counts["paper_tables"] == 1
+    assert "sweep" not in counts
+
+
+def test_dry_run_in_truth_mode_fits_nothing(fresh_clone):
+    n_images = len(pd.read_csv(fresh_clone / "config" / "samples.tsv", sep="\t", dtype=str))
+    result = run_snakemake(fresh_clone, "-n", "--cores", "2", "--config", "features={normal_source: truth}")
+    assert result.returncode == 0, result.stderr[-2000:]
+    counts = job_counts(result.stdout)
+    assert counts["features"] == n_images and not any(rule.startswith("fit_") for rule in counts)
+    assert "results/features/truth/table.parquet" in result.stdout
 
 
 def test_lint_is_clean(fresh_clone):

@@ -51,3 +51,98 @@ def synthetic_outputs(kind):
     """Regenerated synthetic files of one kind ("image" or "truth") for every default image."""
     suffix = {"image": ".png", "truth": ".truth.json"}[kind]
     return [os.path.join(RESULTS, "synthetic", fabric, f"{image}{suffix}") for fabric, _, image in SYNTHETIC]
+
+
+# --- features and classifier (workflow/rules/features.smk, classify.smk) ---
+# {source} is the normal source: "fitted" (rule fit_normals) or "truth" (synthetic ground truth).
+from pathlib import Path
+
+from clothscope.features import NORMAL_SOURCES, row_settings
+from clothscope.synth.generate import truth_paths
+
+
+wildcard_constraints:
+    source="|".join(NORMAL_SOURCES),
+
+
+if "table" in IMAGE_IDS:
+    fail(f"{config['samples']}: image_id 'table' is reserved (results/features/<source>/table.parquet); rename it")
+
+#: feature settings a row depends on (normal_source only picks the source that `all` builds)
+FEATURE_SETTINGS = row_settings(config["features"])
+
+
+def features_path(source, name):
+    return os.path.join(RESULTS, "features", source, name)
+
+
+def fit_normals_dir(image):
+    return os.path.join(RESULTS, "fit", image, "normals")
+
+
+def normal_source_inputs(source, image):
+    """Files one image's features come from: its fit_normals folder, or its image and ground truth."""
+    if source == "fitted":
+        return {"normals": fit_normals_dir(image)}
+    path = SAMPLES.loc[image, "path"]
+    truth = truth_paths(Path(path))
+    return {"image": path, **{key: str(truth[key]) for key in ("normal", "json") if truth[key].is_file()}}
+
+
+def feature_inputs(wildcards):
+    return normal_source_inputs(wildcards.source, wildcards.image)
+
+
+def all_normal_inputs(wildcards):
+    """Every image's normal-source files (paper tables and sweep recompute features from them)."""
+    return [f for image in IMAGE_IDS for f in normal_source_inputs(wildcards.source, image).values()]
+
+
+def image_sources():
+    """Image id to its sheet path and fit_normals folder (params of the table rules)."""
+    return {image: {"path": SAMPLES.loc[image, "path"], "fit_dir": fit_normals_dir(image)} for image in IMAGE_IDS}
+
+
+def feature_rows(wildcards):
+    return [features_path(wildcards.source, f"{image}.parquet") for image in IMAGE_IDS]
+
+
+def feature_table(source):
+    return features_path(source, "table.parquet")
+
+
+def reports_path(source, name):
+    return os.path.join(RESULTS, "reports", source, name)
+
+
+CLASSIFY_REPORTS = ("accuracy.json", "confusion.csv", "confusion.png", "per_class.csv", "predictions.csv", "images.tsv")
+
+
+def classify_outputs(source):
+    return [reports_path(source, name) for name in CLASSIFY_REPORTS]
+
+
+def physics_outputs(source):
+    return [os.path.join(RESULTS, "physics", source, f"{image}.json") for image in IMAGE_IDS]
+
+
+def paper_table_outputs(source):
+    return [reports_path(source, "paper_tables.md"), reports_path(source, "paper_tables.csv")]
+
+
+def sweep_outputs(source):
+    return [reports_path(source, "sweep.csv"), reports_path(source, "sweep.png")]
+
+
+def fit_dir(stage):
+    return os.path.join(RESULTS, "fit", "{image}", stage)
+
+
+def images_with_truth():
+    """Sample-sheet images that carry synthetic ground truth (the accuracy report needs it)."""
+    return [i for i in IMAGE_IDS if truth_paths(Path(SAMPLES.loc[i, "path"]))["json"].exists()]
+
+
+def fit_accuracy_report():
+    """The inverse renderer's accuracy report, when the sheet has images with ground truth."""
+    return [os.path.join(RESULTS, "reports", "fit_accuracy.md")] if images_with_truth() else []

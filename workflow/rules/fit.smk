@@ -2,10 +2,6 @@
 # Changing one stage's settings (fit.<stage> in the config) reruns that stage and what follows.
 
 
-def fit_dir(stage):
-    return os.path.join(RESULTS, "fit", "{image}", stage)
-
-
 rule fit_geometry:
     input:
         prepared=os.path.join(RESULTS, "prepared", "{image}"),
@@ -78,14 +74,6 @@ rule fit_normals:
         "../../environment.yml"
     script:
         "../scripts/fit_stage.py"
-
-
-def images_with_truth():
-    """Sample-sheet images that carry synthetic ground truth (the accuracy report needs it)."""
-    from clothscope.synth.generate import truth_paths
-    from pathlib import Path
-
-    return [i for i in IMAGE_IDS if truth_paths(Path(SAMPLES.loc[i, "path"]))["json"].exists()]
 
 
 rule fit_accuracy:

@@ -1,0 +1,160 @@
+"""The ``classify`` rule: LOOCV reports, the all-labelled model, query predictions and physics JSON.
+
+Only rows with status ``ok`` are scored, trained on or predicted; every other
+image still gets a physics JSON that records its status and reason.
+
+Posteriors behind each image's physics parameters:
+
+* labelled images scored by LOOCV: their leave-one-out posteriors (the model
+  never saw the image), ``posterior_source: loocv``;
+* queries (empty ``fabric_class``), and labelled images of a class too small
+  for LOOCV: the all-labelled model's posteriors, ``posterior_source: model``.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from . import __version__
+from .atomic import write_json, write_text, write_with
+from .classify import POSTERIOR_PREFIX, loocv, metadata_path, predict, save_model, split_labelled, train_model, write_reports
+from .features import STATUS_OK, classifier_columns, read_table
+from .physics import load_physics_table, physics_for
+
+
+def _posteriors(row: pd.Series) -> dict[str, float]:
+    values = {c[len(POSTERIOR_PREFIX):]: float(row[c]) for c in row.index if c.startswith(POSTERIOR_PREFIX)}
+    total = sum(values.values())
+    return {c: v / total for c, v in values.items()} if total > 0 else values
+
+
+def _provenance(table: pd.DataFrame) -> dict[str, Any]:
+    return {
+        "normal_sources": sorted(set(table["normal_source"])),
+        "config_hashes": sorted(set(table["config_hash"])),
+        "mitsuba_variants": sorted(set(table["mitsuba_variant"])),
+    }
+
+
+def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.PathLike[str], source: str, reg: float | str,
+                 reports_dir: str | os.PathLike[str], model_path: str | os.PathLike[str],
+                 physics_paths: dict[str, str], log: Any = None) -> dict[str, Any]:
+    """Run the classifier stage for one normal source.
+
+    Parameters
+    ----------
+    table_path
+        The feature table (Parquet).
+    physics_path
+        ``config/physics.yaml``.
+    source
+        ``truth`` or ``fitted`` (for titles and records).
+    reg
+        QDA shrinkage, ``"auto"`` or a number in [0, 1].
+    reports_dir
+        Receives ``accuracy.json``, ``confusion.{csv,png}``, ``per_class.csv``,
+        ``predictions.csv`` and ``images.tsv`` (every image's status and prediction).
+    model_path
+        Where the all-labelled model is pickled (``<path>.meta.json`` beside it).
+    physics_paths
+        Image id to the physics JSON to write; every image of the table needs one.
+    """
+    table = read_table(table_path)
+    physics_table = load_physics_table(physics_path)
+    columns = classifier_columns(table.columns)
+    ok = table[table["status"] == STATUS_OK]
+    labelled, queries = split_labelled(ok)
+    provenance = _provenance(table)
+    problems = []
+    try:
+        result = loocv(ok, columns, reg)
+    except ValueError as err:  # too few labelled classes or images: no scores, the run goes on
+        result, problems = None, [f"LOOCV not run: {str(err).splitlines()[0]}"]
+    try:
+        model = train_model(ok, columns, reg)
+    except ValueError as err:
+        model = None
+        problems.append(f"no model trained: {str(err).splitlines()[0]}")
+    query_predictions = predict(model, queries) if model is not None else pd.DataFrame(columns=["image_id", "predicted_class"])
+    if result is not None:
+        title = f"QDA, leave-one-out, {source} normal maps ({result.correct}/{result.n} correct)"
+        write_reports(result, query_predictions, reports_dir, title)
+    else:
+        _write_unscored(reports_dir, source, problems, query_predictions)
+    if model is not None:
+        save_model(model, model_path, metadata={"normal_source": source, "feature_table": str(table_path), **provenance,
+                                                "n_labelled": int(len(labelled)),
+                                                "loocv_accuracy": float(result.accuracy) if result is not None else None})
+    else:
+        write_with(model_path, lambda tmp: tmp.write_bytes(b""))
+        write_json(metadata_path(model_path), {"status": "not trained", "reason": "; ".join(problems),
+                                               "normal_source": source, **provenance})
+
+    loo = result.predictions.set_index("image_id") if result is not None else pd.DataFrame(columns=["predicted_class"])
+    query_ids = set(query_predictions["image_id"].astype(str))
+    # labelled images a too-small class kept out of LOOCV: posteriors from the all-labelled model
+    rest = labelled[~labelled["image_id"].astype(str).isin(loo.index)]
+    rest_predictions = predict(model, rest) if model is not None else pd.DataFrame(columns=["image_id", "predicted_class"])
+    model_rows = pd.concat([query_predictions, rest_predictions], ignore_index=True).set_index("image_id")
+
+    summary = []
+    for _, row in table.iterrows():
+        image_id = str(row["image_id"])
+        label = str(row["fabric_class"] or "").strip()
+        record: dict[str, Any] = {
+            "image_id": image_id, "fabric_class": label, "normal_source": source, "status": row["status"],
+            "reason": row["reason"], "config_hash": row["config_hash"], "mitsuba_variant": row["mitsuba_variant"],
+            "clothscope_version": __version__, "posterior_source": None, "predicted_class": None, "posteriors": None,
+            "physics": None,
+        }
+        if row["status"] == STATUS_OK and image_id not in loo.index and image_id not in model_rows.index:
+            record["reason"] = "; ".join(problems) or "not classified"
+        elif row["status"] == STATUS_OK:
+            if image_id in loo.index:
+                prediction, record["posterior_source"] = loo.loc[image_id], "loocv"
+            else:
+                prediction, record["posterior_source"] = model_rows.loc[image_id], "model"
+            posteriors = _posteriors(prediction)
+            record["predicted_class"] = str(prediction["predicted_class"])
+            record["posteriors"] = posteriors
+            record["physics"] = physics_for(posteriors, physics_table)
+        if image_id not in physics_paths:
+            raise ValueError(f"no physics output path for image {image_id!r}")
+        write_json(physics_paths[image_id], record)
+        split = "excluded" if row["status"] != STATUS_OK else ("query" if image_id in query_ids else record["posterior_source"] or "unclassified")
+        summary.append({"image_id": image_id, "fabric_class": label, "status": row["status"], "split": split,
+                        "predicted_class": record["predicted_class"] or "",
+                        "posterior": f"{max(record['posteriors'].values()):.6f}" if record["posteriors"] else "",
+                        "reason": record["reason"]})
+    missing = sorted(set(physics_paths) - set(table["image_id"].astype(str)))
+    if missing:
+        raise ValueError(f"feature table has no row for image(s) {', '.join(missing)}")
+    write_text(Path(reports_dir) / "images.tsv", pd.DataFrame(summary).to_csv(sep="\t", index=False, lineterminator="\n"))
+    if log is not None:
+        for problem in problems:
+            log.warning("%s", problem)
+    if result is None:
+        return {"correct": 0, "n": 0, "accuracy": None, "queries": len(queries), "problems": problems}
+    if log is not None:
+        log.info("%s: LOOCV %d/%d, %d queries, %d images excluded", source, result.correct, result.n, len(queries),
+                 int((table["status"] != STATUS_OK).sum()))
+    return {"correct": result.correct, "n": result.n, "accuracy": result.accuracy, "queries": len(queries)}
+
+
+def _write_unscored(reports_dir: str | os.PathLike[str], source: str, problems: list[str], queries: pd.DataFrame) -> None:
+    """The report files of :func:`clothscope.classify.write_reports` when LOOCV could not run, saying why."""
+    from .features import plot_placeholder
+
+    out = Path(reports_dir)
+    reason = "; ".join(problems)
+    write_json(out / "accuracy.json", {"title": f"QDA, {source} normal maps", "status": "not run", "reason": reason,
+                                       "n": 0, "correct": 0, "n_queries": int(len(queries))})
+    write_text(out / "confusion.csv", "true_class\n")
+    write_text(out / "per_class.csv", "class,support,predicted,correct,precision,recall\n")
+    frame = queries.copy()
+    frame["true_class"], frame["split"] = "", "query"
+    write_text(out / "predictions.csv", frame.to_csv(index=False, lineterminator="\n"))
+    plot_placeholder(out / "confusion.png", f"QDA, {source} normal maps", reason)

@@ -1,0 +1,394 @@
+"""Per-image feature rows (paper section 3.4) and the feature table.
+
+One row per sample-sheet image, computed from that image's tangent-space
+normal map and its BSDF parameters, taken from one of two *normal sources*:
+
+* ``fitted``: the inverse renderer's output, ``results/fit/<id>/normals/``
+  (``state.json``: status, ``material`` {base_color, specular, roughness},
+  ``texels_per_pixel``, ``runtime.mitsuba_variant``; ``normal.exr``: float32
+  unit normals, read raw through Mitsuba's Bitmap, *not* through
+  :func:`clothscope.imageio.decode_exr`, which clamps negative values to 0
+  as it is meant for radiance);
+* ``truth``: the ground truth beside a synthetic image
+  (:func:`clothscope.synth.generate.truth_paths`: ``<stem>.truth-normal.png``
+  and ``<stem>.truth.json``), which needs no fitting.
+
+Columns (:func:`feature_schema`, an explicit pyarrow schema):
+
+* identity and provenance: ``image_id``, ``fabric_class`` (empty for a
+  query), ``status`` (``ok``, or ``skipped`` / ``failed`` from the fit, or
+  ``missing`` when the ground truth is absent), ``reason`` (one line, empty
+  when ok), ``normal_source``, ``mitsuba_variant`` (from the fit state;
+  ``"truth"`` in truth mode), ``config_hash`` (:func:`config_hash`),
+  ``clothscope_version`` and ``texels_per_pixel``;
+* the paper's features: ``roughness``; ``specular_norm``, the norm of the
+  specular reflectance: our principled BSDF has one scalar ``specular`` *s*
+  applied equally to R, G and B, so the reflectance vector is (s, s, s) and
+  its Euclidean norm is ``sqrt(3) * s`` (:func:`specular_norm`; a constant
+  factor, so the standardised classifier sees exactly the information in
+  *s*); ``r_1..r_n``, ``z_1..z_n`` and ``n_peaks``
+  (:func:`clothscope.spectrum.analyse_normal_map`);
+* with ``extras: true`` only, the ``x_*`` columns of
+  :func:`clothscope.spectrum.extra_features` and :func:`surface_features`.
+  ``x_period_px`` (thread period in photo pixels) is deliberately *not*
+  scale-invariant: it separates classes by thread density, and a photo taken
+  at another zoom moves it.
+
+A row that is not ``ok`` has zero-filled features (never NaN) and is never
+used for training or scoring.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from . import __version__
+from .atomic import write_with
+from .imageio import read_exr
+from .spectrum import SpectrumResult, SpectrumSettings, analyse_normal_map, extra_features, plot_analysis
+
+#: Where the normal maps come from.
+NORMAL_SOURCES = ("truth", "fitted")
+#: Status of a usable row.
+STATUS_OK = "ok"
+#: Keys of the ``features:`` config section that are SpectrumSettings fields.
+SPECTRUM_KEYS = (
+    "n_peaks", "alpha", "dc_radius", "peak_size", "window", "reference_resolution",
+    "radius_normalisation", "peak_count", "strong_fraction",
+)
+#: Extra feature columns (spectrum.extra_features and surface_features), present only with ``extras: true``.
+EXTRA_COLUMNS = ("x_angle_deg", "x_low_radius_ratio", "x_strong_to_low_radius", "x_flatness", "x_peak_fraction",
+                 "x_tilt_mean_deg", "x_tilt_anisotropy", "x_period_px")
+#: Provenance columns, in table order, with their types.
+PROVENANCE = (
+    ("image_id", pa.string()),
+    ("fabric_class", pa.string()),
+    ("status", pa.string()),
+    ("reason", pa.string()),
+    ("normal_source", pa.string()),
+    ("mitsuba_variant", pa.string()),
+    ("config_hash", pa.string()),
+    ("clothscope_version", pa.string()),
+    ("texels_per_pixel", pa.float64()),
+)
+
+
+def specular_norm(specular: float) -> float:
+    """Norm of the grey specular reflectance (s, s, s): ``sqrt(3) * s``."""
+    return math.sqrt(3.0) * float(specular)
+
+
+def spectrum_settings(features_config: dict[str, Any]) -> SpectrumSettings:
+    """The :class:`SpectrumSettings` of a ``features:`` config section (other keys ignored)."""
+    return SpectrumSettings(**{k: features_config[k] for k in SPECTRUM_KEYS if k in features_config})
+
+
+def row_settings(features_config: dict[str, Any]) -> dict[str, Any]:
+    """The part of a ``features:`` section that changes a row (everything but ``normal_source``)."""
+    return {k: v for k, v in sorted(features_config.items()) if k != "normal_source"}
+
+
+def config_hash(features_config: dict[str, Any], source: str) -> str:
+    """12 hex digits identifying the feature settings and the normal source of a row."""
+    payload = json.dumps({"features": row_settings(features_config), "normal_source": source}, sort_keys=True, default=str)
+    return hashlib.sha256(payload.encode("utf-8")).hexdigest()[:12]
+
+
+def paper_feature_columns(n_peaks: int) -> list[str]:
+    """The paper's features: roughness, specular_norm, r_1..r_n, z_1..z_n, n_peaks."""
+    return ["roughness", "specular_norm", *[f"r_{k}" for k in range(1, n_peaks + 1)],
+            *[f"z_{k}" for k in range(1, n_peaks + 1)], "n_peaks"]
+
+
+def feature_columns(n_peaks: int, extras: bool) -> list[str]:
+    """Every feature column of a table: the paper's, then the ``x_*`` extras when on."""
+    return paper_feature_columns(n_peaks) + (list(EXTRA_COLUMNS) if extras else [])
+
+
+def classifier_columns(table_columns: list[str] | Any) -> list[str]:
+    """The feature columns present in a table, in table order (what the classifier uses)."""
+    names = list(table_columns)
+    return [c for c in names if c in ("roughness", "specular_norm", "n_peaks") or c.startswith(("r_", "z_", "x_"))]
+
+
+def feature_schema(n_peaks: int, extras: bool) -> pa.Schema:
+    """The explicit schema of feature rows and tables."""
+    fields = [pa.field(name, kind, nullable=False) for name, kind in PROVENANCE]
+    for name in feature_columns(n_peaks, extras):
+        fields.append(pa.field(name, pa.int64() if name == "n_peaks" else pa.float64(), nullable=False))
+    return pa.schema(fields, metadata={b"clothscope_version": __version__.encode()})
+
+
+def _finite(value: Any, name: str) -> float:
+    number = float(value)
+    if not math.isfinite(number):
+        raise ValueError(f"{name} is not finite: {value!r}")
+    return number
+
+
+def _row(image_id: str, fabric_class: str | None, settings: SpectrumSettings, extras: bool, provenance: dict[str, Any],
+         roughness: float, specular: float, features: dict[str, float], extra: dict[str, float]) -> dict[str, Any]:
+    row: dict[str, Any] = {
+        "image_id": str(image_id),
+        "fabric_class": "" if fabric_class is None or (isinstance(fabric_class, float) and math.isnan(fabric_class))
+        else str(fabric_class).strip(),
+        "status": STATUS_OK,
+        "reason": "",
+        "normal_source": "truth",
+        "mitsuba_variant": "truth",
+        "config_hash": "",
+        "clothscope_version": __version__,
+        "texels_per_pixel": 1.0,
+    }
+    row.update(provenance)
+    row["reason"] = " ".join(str(row["reason"]).split())
+    row["roughness"] = _finite(roughness, "roughness")
+    row["specular_norm"] = specular_norm(_finite(specular, "specular"))
+    for name in paper_feature_columns(settings.n_peaks)[2:]:
+        value = features.get(name, 0.0)
+        row[name] = int(round(value)) if name == "n_peaks" else _finite(value, name)
+    if extras:
+        for name in EXTRA_COLUMNS:
+            row[name] = _finite(extra.get(name, 0.0), name)
+    return row
+
+
+def surface_features(normals: np.ndarray, result: SpectrumResult, texels_per_pixel: float) -> dict[str, float]:
+    """Extras from the normal map itself: mean tilt, tilt anisotropy and the thread period in photo pixels.
+
+    ``x_tilt_mean_deg``: mean angle between normal and surface normal (relief depth);
+    ``x_tilt_anisotropy``: smaller over larger eigenvalue of the second moment of
+    (n_x, n_y), in [0, 1] (1 = isotropic relief, rotation-invariant);
+    ``x_period_px``: dominant spectral period in photo pixels (0 without a peak).
+    """
+    if normals.ndim != 3:
+        return {"x_tilt_mean_deg": 0.0, "x_tilt_anisotropy": 0.0, "x_period_px": 0.0}
+    nx, ny, nz = normals[..., 0], normals[..., 1], normals[..., 2]
+    tilt = float(np.degrees(np.arccos(np.clip(nz, -1.0, 1.0))).mean())
+    moment = np.array([[np.mean(nx * nx), np.mean(nx * ny)], [np.mean(nx * ny), np.mean(ny * ny)]])
+    low, high = np.linalg.eigvalsh(moment)
+    period = result.dominant_period_px
+    return {"x_tilt_mean_deg": tilt, "x_tilt_anisotropy": float(low / high) if high > 1e-12 else 0.0,
+            "x_period_px": float(period / texels_per_pixel) if period and texels_per_pixel > 0 else 0.0}
+
+
+def compute_row(image_id: str, fabric_class: str | None, normals: np.ndarray, roughness: float, specular: float,
+                settings: SpectrumSettings, extras: bool, **provenance: Any) -> tuple[dict[str, Any], SpectrumResult]:
+    """:func:`feature_row` and the :class:`SpectrumResult` it came from (for the plot)."""
+    result = analyse_normal_map(normals, settings)
+    extra = {}
+    if extras:
+        extra = extra_features(result) | surface_features(np.asarray(normals), result, float(provenance.get("texels_per_pixel", 1.0)))
+    return _row(image_id, fabric_class, settings, extras, provenance, roughness, specular, result.features, extra), result
+
+
+def feature_row(image_id: str, fabric_class: str | None, normals: np.ndarray, roughness: float, specular: float,
+                settings: SpectrumSettings, extras: bool, **provenance: Any) -> dict[str, Any]:
+    """One image's feature row.
+
+    Parameters
+    ----------
+    image_id, fabric_class
+        From the sample sheet; an empty class marks a query.
+    normals
+        (N, N, 3) tangent-space unit normals (or an (N, N) z map).
+    roughness, specular
+        The BSDF's roughness and scalar specular *s* (``specular_norm = sqrt(3) * s``).
+    settings
+        Spectrum analysis settings.
+    extras
+        Also compute the ``x_*`` extra features.
+    **provenance
+        Overrides of the provenance columns (``normal_source``,
+        ``mitsuba_variant``, ``config_hash``, ``texels_per_pixel``, ...).
+
+    Returns
+    -------
+    dict
+        Column name to value, in :func:`feature_schema` order; every number finite.
+
+    Raises
+    ------
+    ValueError
+        On an unusable normal map or non-finite roughness / specular.
+    """
+    return compute_row(image_id, fabric_class, normals, roughness, specular, settings, extras, **provenance)[0]
+
+
+def unusable_row(image_id: str, fabric_class: str | None, settings: SpectrumSettings, extras: bool, status: str, reason: str,
+                 **provenance: Any) -> dict[str, Any]:
+    """A row for an image without usable features: ``status`` and ``reason`` set, features zero-filled."""
+    if status == STATUS_OK:
+        raise ValueError("an unusable row needs a status other than 'ok'")
+    return _row(image_id, fabric_class, settings, extras, {**provenance, "status": status, "reason": reason or status},
+                0.0, 0.0, {}, {})
+
+
+# --------------------------------------------------------------------------- normal sources
+
+
+@dataclass
+class NormalInput:
+    """An image's normal map and BSDF parameters from one normal source, or why there are none."""
+
+    normals: np.ndarray | None
+    roughness: float
+    specular: float
+    status: str
+    reason: str
+    mitsuba_variant: str
+    texels_per_pixel: float
+
+
+def _unusable(status: str, reason: str, variant: str) -> NormalInput:
+    return NormalInput(None, 0.0, 0.0, status, " ".join(reason.split()), variant, 0.0)
+
+
+def load_truth(image_path: str | os.PathLike[str]) -> NormalInput:
+    """Ground-truth normal map and BSDF of a synthetic image; ``missing`` when the files are not there."""
+    from .imageio import read_png
+    from .synth.generate import decode_normal, truth_paths
+
+    paths = truth_paths(Path(image_path))
+    absent = [str(paths[k]) for k in ("normal", "json") if not paths[k].is_file()]
+    if absent:
+        return _unusable("missing", f"no ground truth for {image_path}: {', '.join(absent)} not found", "truth")
+    try:
+        truth = json.loads(paths["json"].read_text(encoding="utf-8"))
+        normals = decode_normal(read_png(paths["normal"]))
+        if normals.ndim != 3 or normals.shape[-1] < 3:
+            raise ValueError(f"{paths['normal']}: expected an RGB normal map, got shape {normals.shape}")
+        return NormalInput(normals[..., :3], _finite(truth["roughness"], "roughness"), _finite(truth["specular"], "specular"),
+                           STATUS_OK, "", "truth", 1.0)
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        return _unusable("failed", f"ground truth of {image_path} unreadable: {type(err).__name__}: {err}", "truth")
+
+
+def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
+    """The fit_normals output of one image: ``state.json`` and ``normal.exr``."""
+    folder = Path(normals_dir)
+    try:
+        state = json.loads((folder / "state.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        return _unusable("failed", f"{folder}/state.json unreadable: {type(err).__name__}: {err}", "")
+    variant = str((state.get("runtime") or {}).get("mitsuba_variant", ""))
+    status = state.get("status")
+    if status != "fitted":
+        status = status if status in ("skipped", "failed") else "failed"
+        return _unusable(status, str(state.get("reason") or f"fit status {state.get('status')!r}"), variant)
+    try:
+        material = state["material"]
+        normals = read_exr(folder / "normal.exr")
+        if normals.ndim != 3 or normals.shape[-1] < 3:
+            raise ValueError(f"normal.exr: expected 3 channels, got shape {normals.shape}")
+        normals = normals[..., :3]
+        if not np.all(np.isfinite(normals)):
+            raise ValueError("normal.exr holds non-finite values")
+        return NormalInput(normals, _finite(material["roughness"], "roughness"), _finite(material["specular"], "specular"),
+                           STATUS_OK, "", variant, _finite(state.get("texels_per_pixel", 1.0), "texels_per_pixel"))
+    except (OSError, RuntimeError, ValueError, KeyError, TypeError) as err:
+        return _unusable("failed", f"{folder}: {type(err).__name__}: {err}", variant)
+
+
+def load_normal_input(source: str, image_path: str | os.PathLike[str], fit_normals_dir: str | os.PathLike[str] | None) -> NormalInput:
+    """:func:`load_truth` or :func:`load_fitted`, by ``source``."""
+    if source == "truth":
+        return load_truth(image_path)
+    if source == "fitted":
+        if fit_normals_dir is None:
+            raise ValueError("the fitted normal source needs the fit_normals folder")
+        return load_fitted(fit_normals_dir)
+    raise ValueError(f"normal source must be one of {', '.join(NORMAL_SOURCES)}, got {source!r}")
+
+
+# --------------------------------------------------------------------------- rows, tables and plots
+
+
+def row_table(rows: list[dict[str, Any]], schema: pa.Schema) -> pa.Table:
+    """Rows as a pyarrow table of ``schema`` (extra keys are an error)."""
+    names = schema.names
+    for row in rows:
+        if set(row) != set(names):
+            raise ValueError(f"row {row.get('image_id')!r} has columns {sorted(row)}, schema expects {names}")
+    return pa.Table.from_pylist([{k: row[k] for k in names} for row in rows], schema=schema)
+
+
+def write_rows(rows: list[dict[str, Any]], schema: pa.Schema, target: str | os.PathLike[str]) -> None:
+    """Write rows as Parquet, atomically."""
+    table = row_table(rows, schema)
+    write_with(target, lambda tmp: pq.write_table(table, tmp))
+
+
+def concat_rows(paths: list[str | os.PathLike[str]]) -> pa.Table:
+    """Concatenate one-row Parquet files into one table; their schemas must agree."""
+    if not paths:
+        raise ValueError("no feature rows to concatenate")
+    tables = [pq.read_table(p) for p in paths]
+    schema = tables[0].schema
+    for path, table in zip(paths, tables):
+        if not table.schema.equals(schema, check_metadata=False):
+            raise ValueError(f"{path}: schema differs from {paths[0]}; rerun the features rule for every image")
+    table = pa.concat_tables(tables)
+    ids = table.column("image_id").to_pylist()
+    if len(set(ids)) != len(ids):
+        raise ValueError("feature rows repeat an image_id")
+    return table
+
+
+def read_table(path: str | os.PathLike[str]):
+    """A feature table as a pandas DataFrame."""
+    return pq.read_table(path).to_pandas()
+
+
+def plot_placeholder(target: str | os.PathLike[str], title: str, reason: str) -> None:
+    """A PNG that says why an image has no spectrum plot, atomically."""
+    import textwrap
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.0, 3.0))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    ax.axis("off")
+    ax.text(0.5, 0.5, textwrap.fill(reason, 70), ha="center", va="center", fontsize=9, wrap=True)
+    fig.suptitle(title)
+    write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=80))
+
+
+def features_job(image_id: str, fabric_class: str | None, source: str, image_path: str, fit_normals_dir: str | None,
+                 features_config: dict[str, Any], row_path: str, plot_path: str, log: Any = None) -> dict[str, Any]:
+    """The ``features`` rule for one image: load its normal source, write the one-row Parquet and the plot."""
+    settings = spectrum_settings(features_config)
+    extras = bool(features_config.get("extras", False))
+    schema = feature_schema(settings.n_peaks, extras)
+    loaded = load_normal_input(source, image_path, fit_normals_dir)
+    provenance = {"normal_source": source, "mitsuba_variant": loaded.mitsuba_variant or "unknown",
+                  "config_hash": config_hash(features_config, source), "texels_per_pixel": loaded.texels_per_pixel}
+    title = f"{image_id} ({fabric_class or 'query'}, {source} normals)"
+    row, result = None, None
+    if loaded.status == STATUS_OK:
+        try:
+            row, result = compute_row(image_id, fabric_class, loaded.normals, loaded.roughness, loaded.specular, settings,
+                                      extras, **provenance)
+        except ValueError as err:
+            loaded = _unusable("failed", f"spectrum analysis: {err}", loaded.mitsuba_variant)
+    if row is None:
+        row = unusable_row(image_id, fabric_class, settings, extras, loaded.status, loaded.reason, **provenance)
+    write_rows([row], schema, row_path)
+    if result is not None:
+        plot_analysis(result, plot_path, title=title)
+    else:
+        plot_placeholder(plot_path, title, f"{row['status']}: {row['reason']}")
+    if log is not None:
+        log.info("%s: %s %s", image_id, row["status"], row["reason"])
+    return row

@@ -1,0 +1,227 @@
+"""Feature rows, the feature table, the paper tables / sweep helpers, and the truth-mode workflow end to end."""
+from __future__ import annotations
+
+import json
+import math
+import re
+import shutil
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+import yaml
+from conftest import ROOT, SCHEMAS, SYNTHETIC, run_snakemake
+
+from clothscope.features import (EXTRA_COLUMNS, concat_rows, config_hash, feature_row, feature_schema, features_job,
+                                 load_fitted, load_truth, paper_feature_columns, specular_norm, unusable_row, write_rows)
+from clothscope.imageio import read_png, write_exr
+from clothscope.schema import load_schema, validate
+from clothscope.spectrum import SpectrumSettings, analyse_normal_map
+from clothscope.synth.generate import decode_normal, truth_paths
+from clothscope.tables import PAPER_EXPERIMENTS, truncated_features
+
+SETTINGS = SpectrumSettings()
+
+
+def flat_map(size=64):
+    normals = np.zeros((size, size, 3), np.float32)
+    normals[..., 2] = 1.0
+    return normals
+
+
+def noisy_map(size=64, seed=0):
+    rng = np.random.default_rng(seed)
+    normals = rng.normal(0.0, 0.3, (size, size, 3))
+    normals[..., 2] = 1.0
+    return (normals / np.linalg.norm(normals, axis=-1, keepdims=True)).astype(np.float32)
+
+
+def truth_normals(image_id="canvas_red"):
+    fabric = image_id.rsplit("_", 1)[0]
+    return decode_normal(read_png(truth_paths(SYNTHETIC / fabric / f"{image_id}.png")["normal"]))
+
+
+@pytest.mark.parametrize("normals", [flat_map(), noisy_map()], ids=["flat", "noisy"])
+@pytest.mark.parametrize("extras", [False, True])
+def test_feature_row_is_finite_and_matches_schema(normals, extras):
+    row = feature_row("a", "canvas", normals, 0.5, 0.4, SETTINGS, extras)
+    schema = feature_schema(SETTINGS.n_peaks, extras)
+    assert list(row) == schema.names
+    numbers = [v for v in row.values() if isinstance(v, (int, float))]
+    assert numbers and all(math.isfinite(v) for v in numbers)
+    assert row["status"] == "ok" and row["reason"] == "" and row["specular_norm"] == pytest.approx(math.sqrt(3) * 0.4)
+    assert any(c.startswith("x_") for c in row) == extras
+    if normals is not None and np.ptp(normals[..., 2]) == 0:
+        assert row["n_peaks"] == 0 and row["r_1"] == 0.0 and row["z_1"] == 0.0
+
+
+def test_feature_row_of_a_woven_map_has_peaks():
+    row = feature_row("canvas_red", "canvas", truth_normals(), 0.7, 0.3, SETTINGS, False)
+    assert row["n_peaks"] >= 1 and row["z_1"] == pytest.approx(1.0) and 0 < row["r_1"] <= 1.0
+
+
+def test_unusable_row_is_zero_filled_with_reason():
+    row = unusable_row("b", "", SETTINGS, True, "skipped", "prepare: image rejected\n(too small)")
+    assert row["status"] == "skipped" and row["reason"] == "prepare: image rejected (too small)"
+    assert all(row[c] == 0 for c in paper_feature_columns(2) + list(EXTRA_COLUMNS))
+    with pytest.raises(ValueError):
+        unusable_row("b", "", SETTINGS, False, "ok", "")
+
+
+def test_table_parquet_round_trip(tmp_path):
+    schema = feature_schema(3, True)
+    settings = SpectrumSettings(n_peaks=3)
+    rows = [feature_row("a", "canvas", noisy_map(), 0.5, 0.4, settings, True, config_hash="abc"),
+            unusable_row("q", None, settings, True, "missing", "no ground truth")]
+    paths = []
+    for row in rows:
+        paths.append(tmp_path / f"{row['image_id']}.parquet")
+        write_rows([row], schema, paths[-1])
+    table = concat_rows(paths)
+    assert table.schema.equals(schema, check_metadata=False) and table.num_rows == 2
+    back = pq.read_table(paths[0])
+    assert back.schema.field("n_peaks").type == "int64" and back.schema.field("r_3").type == "double"
+    frame = table.to_pandas()
+    assert list(frame["status"]) == ["ok", "missing"] and frame.loc[1, "fabric_class"] == ""
+    assert np.isfinite(frame.select_dtypes("number").to_numpy()).all()
+    other = tmp_path / "other.parquet"
+    write_rows([feature_row("c", "satin", flat_map(), 0.2, 0.7, SpectrumSettings(n_peaks=2), False)], feature_schema(2, False), other)
+    with pytest.raises(ValueError, match="schema differs"):
+        concat_rows([paths[0], other])
+
+
+def test_config_hash_tracks_settings_and_source_not_the_switch():
+    base = {"n_peaks": 2, "alpha": 2.0, "normal_source": "fitted"}
+    assert config_hash(base, "truth") == config_hash({**base, "normal_source": "truth"}, "truth")
+    assert config_hash(base, "truth") != config_hash(base, "fitted")
+    assert config_hash(base, "truth") != config_hash({**base, "alpha": 3.0}, "truth")
+
+
+def test_truth_and_fitted_loaders(tmp_path):
+    truth = load_truth(SYNTHETIC / "satin" / "satin_red.png")
+    assert truth.status == "ok" and truth.normals.shape == (256, 256, 3) and 0.1 < truth.roughness < 0.4
+    missing = load_truth(tmp_path / "nothing.png")
+    assert missing.status == "missing" and "truth-normal.png" in missing.reason and missing.normals is None
+    # a fitted folder: raw float EXR with negative components must come back unchanged
+    folder = tmp_path / "normals"
+    folder.mkdir()
+    normals = noisy_map(32)
+    write_exr(folder / "normal.exr", normals)
+    (folder / "state.json").write_text(json.dumps({"status": "fitted", "material": {"base_color": [0.5, 0.5, 0.5], "specular": 0.4,
+                                                  "roughness": 0.6}, "texels_per_pixel": 0.94, "runtime": {"mitsuba_variant": "llvm_ad_rgb"}}))
+    fitted = load_fitted(folder)
+    assert fitted.status == "ok" and fitted.mitsuba_variant == "llvm_ad_rgb" and fitted.texels_per_pixel == 0.94
+    assert np.array_equal(fitted.normals, normals) and fitted.normals.min() < 0
+    (folder / "state.json").write_text(json.dumps({"status": "skipped", "reason": "prepare: rejected"}))
+    skipped = load_fitted(folder)
+    assert skipped.status == "skipped" and skipped.reason == "prepare: rejected"
+
+
+def test_features_job_writes_row_and_plot_for_missing_truth(tmp_path):
+    image = tmp_path / "q.png"
+    shutil.copy(SYNTHETIC / "canvas" / "canvas_red.png", image)
+    row = features_job("q", "", "truth", str(image), None, {"n_peaks": 2}, str(tmp_path / "q.parquet"), str(tmp_path / "q.png.out.png"))
+    assert row["status"] == "missing" and (tmp_path / "q.png.out.png").stat().st_size > 0
+    assert pq.read_table(tmp_path / "q.parquet").num_rows == 1
+
+
+def test_truncated_features_equal_a_fresh_analysis():
+    normals = truth_normals("broadcloth_red")
+    wide = analyse_normal_map(normals, SpectrumSettings(n_peaks=4, alpha=2.0))
+    for n in (1, 2, 3):
+        assert truncated_features(wide, n) == analyse_normal_map(normals, SpectrumSettings(n_peaks=n, alpha=2.0)).features
+
+
+def test_paper_experiments_are_the_papers():
+    assert [(len(e.classes), e.n_peaks, e.alpha, e.dc_radius, e.peak_size, e.paper_accuracy) for e in PAPER_EXPERIMENTS] == [
+        (5, 2, 2.0, 20.0, 15.0, 0.60), (7, 2, 3.0, 20.0, 25.0, 0.38), (6, 4, 3.0, 20.0, 15.0, 0.583)]
+
+
+def test_features_and_classify_config_keys_are_commented_with_defaults():
+    schema = load_schema(SCHEMAS / "config.schema.yaml")
+    config = validate(yaml.safe_load((ROOT / "config/config.yaml").read_text()), schema, "config")
+    defaults = validate({}, schema, "config")
+    assert config["features"] == defaults["features"] and config["classify"] == defaults["classify"]
+    assert defaults["features"]["normal_source"] == "fitted" and defaults["features"]["extras"] is False
+    assert SpectrumSettings(**{k: v for k, v in defaults["features"].items() if k not in ("normal_source", "extras")}) == SETTINGS
+    text = (ROOT / "config/config.yaml").read_text().splitlines()
+    keys = [*schema["properties"]["features"]["properties"], *schema["properties"]["classify"]["properties"],
+            *schema["properties"]["classify"]["properties"]["sweep"]["properties"]]
+    for key in keys:
+        line = next(line for line in text if line.strip().startswith(f"{key}:"))
+        assert "#" in line, f"config key {key} has no comment"
+
+
+# --------------------------------------------------------------------------- the workflow, truth mode
+
+
+def job_counts(stdout: str) -> dict[str, int]:
+    counts = {}
+    for line in stdout.split("Job stats:", 1)[-1].splitlines():
+        match = re.match(r"^(\w+)\s+(\d+)$", line.strip())
+        if match:
+            counts[match.group(1)] = int(match.group(2))
+    return counts
+
+
+@pytest.mark.slow
+def test_truth_mode_end_to_end_and_incremental(fresh_clone, tmp_path):
+    sheet = pd.read_csv(ROOT / "config" / "samples.tsv", sep="\t", dtype=str, keep_default_na=False)
+    query = {"image_id": "query_canvas", "path": "data/synthetic/canvas/canvas_navy.png", "fabric_class": "", "dye_color": "",
+             "source": "test query"}
+    sheet = pd.concat([sheet, pd.DataFrame([query])], ignore_index=True)
+    sheet_path = tmp_path / "samples.tsv"
+    sheet.to_csv(sheet_path, sep="\t", index=False)
+    results = tmp_path / "results"
+    config = ["--config", "features={normal_source: truth}", f"samples={sheet_path}", f"results={results}"]
+    run = run_snakemake(fresh_clone, "--cores", "2", "classify_reports", "paper_reports", *config)
+    assert run.returncode == 0, run.stderr[-3000:]
+
+    accuracy = json.loads((results / "reports" / "truth" / "accuracy.json").read_text())
+    assert len(accuracy["classes"]) == 7 and accuracy["n"] == 42 and accuracy["n_queries"] == 1
+    assert math.isfinite(accuracy["accuracy"]) and accuracy["accuracy"] >= 0.85
+    table = pq.read_table(results / "features" / "truth" / "table.parquet").to_pandas()
+    assert len(table) == 43 and set(table["status"]) == {"ok"} and set(table["normal_source"]) == {"truth"}
+    for image_id in sheet["image_id"]:
+        physics = json.loads((results / "physics" / "truth" / f"{image_id}.json").read_text())
+        assert physics["status"] == "ok" and abs(sum(physics["posteriors"].values()) - 1) < 1e-6
+        assert physics["physics"]["most_likely_class"] == physics["predicted_class"]
+    query_physics = json.loads((results / "physics" / "truth" / "query_canvas.json").read_text())
+    assert query_physics["posterior_source"] == "model" and query_physics["predicted_class"] == "canvas"
+    assert query_physics["physics"]["parameters"]["density"] > 0
+    predictions = pd.read_csv(results / "reports" / "truth" / "predictions.csv")
+    assert predictions.loc[predictions["image_id"] == "query_canvas", "split"].item() == "query"
+    paper = pd.read_csv(results / "reports" / "truth" / "paper_tables.csv")
+    assert len(paper) == 6 and set(paper["status"]) == {"ok"} and list(paper["n"]) == [30, 30, 42, 42, 36, 36]
+    assert "| 60% |" in (results / "reports" / "truth" / "paper_tables.md").read_text()
+
+    # a new image (with no ground truth: marked missing, not a crash) plans only its own features job
+    extra = tmp_path / "new_photo.png"
+    shutil.copy(SYNTHETIC / "satin" / "satin_red.png", extra)
+    grown = pd.concat([sheet, pd.DataFrame([{**query, "image_id": "new_photo", "path": str(extra)}])], ignore_index=True)
+    grown.to_csv(sheet_path, sep="\t", index=False)
+    dry = run_snakemake(fresh_clone, "-n", "--cores", "2", "classify_reports", "paper_reports", *config)
+    assert dry.returncode == 0, dry.stderr[-3000:]
+    counts = job_counts(dry.stdout)
+    assert counts["features"] == 1 and counts["feature_table"] == 1 and counts["classify"] == 1
+    assert re.search(r"output: \S*new_photo\.parquet", dry.stdout)
+
+
+def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path):
+    from clothscope.classify_job import classify_job
+
+    settings = SpectrumSettings()
+    rows = [feature_row(f"q{i}", "", noisy_map(seed=i), 0.5, 0.4, settings, False) for i in range(3)]
+    rows.append(unusable_row("bad", "canvas", settings, False, "failed", "fit_normals: diverged"))
+    write_rows(rows, feature_schema(2, False), tmp_path / "table.parquet")
+    physics = {r["image_id"]: str(tmp_path / "physics" / f"{r['image_id']}.json") for r in rows}
+    out = classify_job(tmp_path / "table.parquet", ROOT / "config" / "physics.yaml", "truth", "auto", tmp_path / "reports",
+                       tmp_path / "qda.pkl", physics)
+    assert out["accuracy"] is None and out["problems"]
+    accuracy = json.loads((tmp_path / "reports" / "accuracy.json").read_text())
+    assert accuracy["status"] == "not run" and "LOOCV" in accuracy["reason"]
+    bad = json.loads((tmp_path / "physics" / "bad.json").read_text())
+    assert bad["status"] == "failed" and bad["physics"] is None and bad["reason"] == "fit_normals: diverged"
+    assert json.loads((tmp_path / "physics" / "q0.json").read_text())["physics"] is None
+    assert json.loads((tmp_path / "qda.pkl.meta.json").read_text())["status"] == "not trained"

@@ -1,0 +1,47 @@
+# Stage 4: Fourier features of each image's normal map (paper section 3.4), one cached
+# one-row Parquet file per image and source, then the feature table (a concatenation).
+# {source} is the normal source: "fitted" (rule fit_normals) or "truth" (synthetic ground truth).
+ruleorder: feature_table > features
+
+
+rule features:
+    input:
+        unpack(feature_inputs),
+    output:
+        row=features_path("{source}", "{image}.parquet"),
+        plot=features_path("{source}", "{image}.png"),
+    params:
+        settings=FEATURE_SETTINGS,
+        fabric_class=lambda wildcards: SAMPLES.loc[wildcards.image, "fabric_class"],
+        path=image_path,
+    wildcard_constraints:
+        image=r"(?!table$)[A-Za-z0-9][A-Za-z0-9_.-]*",
+    log:
+        os.path.join(RESULTS, "logs", "features", "{source}", "{image}.log"),
+    benchmark:
+        os.path.join(RESULTS, "benchmarks", "features", "{source}", "{image}.tsv")
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    conda:
+        "../../environment.yml"
+    script:
+        "../scripts/features.py"
+
+
+rule feature_table:
+    input:
+        feature_rows,
+    output:
+        features_path("{source}", "table.parquet"),
+    log:
+        os.path.join(RESULTS, "logs", "feature_table", "{source}.log"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    conda:
+        "../../environment.yml"
+    script:
+        "../scripts/feature_table.py"

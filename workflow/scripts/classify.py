@@ -1,0 +1,17 @@
+"""Snakemake job: LOOCV reports, the all-labelled model, query predictions, physics JSON (clothscope.classify_job)."""
+import os
+
+from clothscope.classify_job import classify_job
+from clothscope.joblog import job_log
+
+with job_log(snakemake.log[0], "classify") as log:
+    classify_job(
+        snakemake.input.table,
+        snakemake.input.physics,
+        snakemake.wildcards.source,
+        snakemake.params.reg,
+        os.path.dirname(snakemake.output.reports[0]),
+        snakemake.output.model,
+        dict(zip(snakemake.params.images, snakemake.output.physics)),
+        log,
+    )

@@ -1,0 +1,16 @@
+"""Snakemake job: the feature row and spectrum plot of one image (logic in clothscope.features)."""
+from clothscope.features import features_job
+from clothscope.joblog import job_log
+
+with job_log(snakemake.log[0], "features") as log:
+    features_job(
+        snakemake.wildcards.image,
+        snakemake.params.fabric_class,
+        snakemake.wildcards.source,
+        snakemake.params.path,
+        snakemake.input.get("normals"),
+        snakemake.params.settings,
+        snakemake.output.row,
+        snakemake.output.plot,
+        log,
+    )

@@ -1,0 +1,15 @@
+"""Snakemake job: the paper's three experiments, features recomputed from the normal maps (clothscope.tables)."""
+from clothscope.joblog import job_log
+from clothscope.tables import paper_tables_job
+
+with job_log(snakemake.log[0], "paper_tables") as log:
+    paper_tables_job(
+        snakemake.input.table,
+        snakemake.wildcards.source,
+        snakemake.params.images,
+        snakemake.params.settings,
+        snakemake.params.reg,
+        snakemake.output.md,
+        snakemake.output.csv,
+        log,
+    )

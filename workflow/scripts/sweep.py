@@ -1,0 +1,16 @@
+"""Snakemake job: LOOCV accuracy over a grid of spectrum settings (clothscope.tables)."""
+from clothscope.joblog import job_log
+from clothscope.tables import sweep_job
+
+with job_log(snakemake.log[0], "sweep") as log:
+    sweep_job(
+        snakemake.input.table,
+        snakemake.wildcards.source,
+        snakemake.params.images,
+        snakemake.params.settings,
+        snakemake.params.sweep,
+        snakemake.params.reg,
+        snakemake.output.csv,
+        snakemake.output.png,
+        log,
+    )
