@@ -1,6 +1,7 @@
 """Shared fixtures: repository paths, a fresh-clone copy, and image factories."""
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import sys
@@ -34,6 +35,16 @@ def fresh_clone(tmp_path_factory) -> Path:
 def run_snakemake(cwd: Path, *args: str, timeout: int = 600) -> subprocess.CompletedProcess:
     """Run this interpreter's snakemake in ``cwd``."""
     return subprocess.run([sys.executable, "-m", "snakemake", *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
+
+
+def job_counts(stdout: str) -> dict[str, int]:
+    """Parse snakemake's 'Job stats' table."""
+    counts = {}
+    for line in stdout.split("Job stats:", 1)[-1].splitlines():
+        match = re.match(r"^(\w+)\s+(\d+)$", line.strip())
+        if match:
+            counts[match.group(1)] = int(match.group(2))
+    return counts
 
 
 def gradient_rgb(height: int = 96, width: int = 128) -> np.ndarray:

@@ -11,7 +11,7 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from conftest import ROOT, SCHEMAS, SYNTHETIC, run_snakemake
+from conftest import ROOT, SCHEMAS, SYNTHETIC, job_counts, run_snakemake
 
 from clothscope.features import (EXTRA_COLUMNS, concat_rows, config_hash, feature_row, feature_schema, features_job,
                                  load_fitted, load_truth, paper_feature_columns, specular_norm, unusable_row, write_rows)
@@ -156,13 +156,6 @@ def test_features_and_classify_config_keys_are_commented_with_defaults():
 # --------------------------------------------------------------------------- the workflow, truth mode
 
 
-def job_counts(stdout: str) -> dict[str, int]:
-    counts = {}
-    for line in stdout.split("Job stats:", 1)[-1].splitlines():
-        match = re.match(r"^(\w+)\s+(\d+)$", line.strip())
-        if match:
-            counts[match.group(1)] = int(match.group(2))
-    return counts
 
 
 @pytest.mark.slow

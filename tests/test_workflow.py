@@ -1,22 +1,9 @@
 """The Snakemake workflow as a new user meets it: dry run and lint on a fresh clone, and a run on broken files."""
 from __future__ import annotations
 
-import re
-
-import pytest
-from conftest import broken_and_valid_files, run_snakemake
-
 import pandas as pd
-
-
-def job_counts(stdout: str) -> dict[str, int]:
-    """Parse snakemake's 'Job stats' table."""
-    counts = {}
-    for line in stdout.split("Job stats:", 1)[-1].splitlines():
-        match = re.match(r"^(\w+)\s+(\d+)$", line.strip())
-        if match:
-            counts[match.group(1)] = int(match.group(2))
-    return counts
+import pytest
+from conftest import broken_and_valid_files, job_counts, run_snakemake
 
 
 def test_dry_run_plans_one_job_per_image_per_stage(fresh_clone):
@@ -28,7 +15,7 @@ def test_dry_run_plans_one_job_per_image_per_stage(fresh_clone):
     # default normal_source is fitted: every image is fitted, then gets a feature row
     for rule in ("fit_geometry", "fit_material", "fit_normals", "features"):
         assert counts.get(rule) == n_images, rule
-    assert counts["feature_table"] == counts["classify"] == counts["paper_tables"] == 1
+    assert counts["feature_table"] == counts["classify"] == counts["paper_tables"] == counts["fit_accuracy"] == 1
     assert "sweep" not in counts
 
 

@@ -70,6 +70,17 @@ def _write_common(tmp: Path, mi: Any, fit: FitScene, photo: Target, curve: list[
     return record
 
 
+def _continue_fit(previous_dir: str, prepared_dir: str, stage: str, variant: str, threads: int, full_effects: bool,
+                  log: logging.Logger) -> tuple[FitScene, Target, Any, Any]:
+    """Fit scene of the previous stage, the photo, Mitsuba and this stage's effects plan."""
+    fit, _ = load_state(previous_dir)
+    photo = load_prepared(prepared_dir)
+    mi = mitsuba_for(variant, threads)
+    plan = plan_stage(stage, geometry_evidence(fit.grid, fit.camera), full_effects)
+    log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
+    return fit, photo, mi, plan
+
+
 def geometry_job(prepared_dir: str, out_dir: str, settings: GeometrySettings, variant: str, threads: int,
                  full_effects: bool, log: logging.Logger) -> dict[str, Any]:
     """``fit_geometry`` for one image."""
@@ -87,11 +98,7 @@ def material_job(prepared_dir: str, geometry_dir: str, out_dir: str, settings: M
                  threads: int, full_effects: bool, log: logging.Logger) -> dict[str, Any]:
     """``fit_material`` for one image."""
     def body(tmp: Path) -> dict[str, Any]:
-        fit, _ = load_state(geometry_dir)
-        photo = load_prepared(prepared_dir)
-        mi = mitsuba_for(variant, threads)
-        plan = plan_stage("material", geometry_evidence(fit.grid, fit.camera), full_effects)
-        log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
+        fit, photo, mi, plan = _continue_fit(geometry_dir, prepared_dir, "material", variant, threads, full_effects, log)
         fit.material, loop = fit_material(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log)
         record = {"effects": [plan.as_record()], "warnings": loop.warnings, "stopped": loop.stopped,
                   "final_loss": loop.best_loss, "settings": settings.__dict__, "material": fit.material.as_dict()}
@@ -106,11 +113,7 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
                 threads: int, full_effects: bool, log: logging.Logger) -> dict[str, Any]:
     """``fit_normals`` for one image: normal map, height map, preview and the refined BSDF."""
     def body(tmp: Path) -> dict[str, Any]:
-        fit, _ = load_state(material_dir)
-        photo = load_prepared(prepared_dir)
-        mi = mitsuba_for(variant, threads)
-        plan = plan_stage("normals", geometry_evidence(fit.grid, fit.camera), full_effects)
-        log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
+        fit, photo, mi, plan = _continue_fit(material_dir, prepared_dir, "normals", variant, threads, full_effects, log)
         height, fit.material, loops = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log)
         normals = height_to_normals_np(height).astype(np.float32)
         write_exr(tmp / "normal.exr", normals)

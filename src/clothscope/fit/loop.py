@@ -89,13 +89,14 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
             for key, factor in scale.items():
                 opt.set_learning_rate({key: lr * factor})
             continue
-        current = {k: np.array(opt[k], dtype=np.float32) for k in initial}
         if value < result.best_loss * (1 - settings.min_improvement):
             since_progress = 0
         else:
             since_progress += 1
-        if value < result.best_loss and _finite(current):
-            result.best, result.best_loss = current, value
+        if value < result.best_loss:
+            current = {k: np.array(opt[k], dtype=np.float32) for k in initial}
+            if _finite(current):
+                result.best, result.best_loss = current, value
         result.curve.append({"iteration": it, "loss": value, "learning_rate": lr, "seconds": time.perf_counter() - started})
         if settings.patience and since_progress >= settings.patience:
             result.stopped = f"plateau: no {settings.min_improvement:.1%} improvement in {settings.patience} iterations"

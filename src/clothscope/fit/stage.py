@@ -5,7 +5,7 @@ import csv
 import io
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -32,6 +32,7 @@ class Target:
 
     image: np.ndarray
     weight: np.ndarray
+    cache: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property
     def resolution(self) -> int:
@@ -74,10 +75,12 @@ def image_loss(mi: ModuleType, rendered: Any, target: Target) -> Any:
     """Weighted mean squared error, normalised by the target's mean square (so black cloth still has gradients)."""
     import drjit as dr
 
-    t = mi.TensorXf(target.image)
-    w = mi.TensorXf(np.repeat(target.weight[..., None], 3, axis=2))
-    norm = float(np.mean(target.image**2)) + 1e-6
-    return dr.sum((rendered - t) ** 2 * w, axis=None) / (float(w.array.numpy().sum()) + 1.0) / norm
+    if "loss" not in target.cache:  # device copies and constants made once per stage, not per iteration
+        weight = np.repeat(target.weight[..., None], 3, axis=2)
+        scale = 1.0 / ((float(weight.sum()) + 1.0) * (float(np.mean(target.image**2)) + 1e-6))
+        target.cache["loss"] = (mi.TensorXf(target.image), mi.TensorXf(weight * scale))
+    t, w = target.cache["loss"]
+    return dr.sum((rendered - t) ** 2 * w, axis=None)
 
 
 def render(mi: ModuleType, scene: Any, params: Any, spp: int, seed: int) -> Any:
