@@ -6,7 +6,7 @@ import yaml
 from conftest import ROOT, SCHEMAS
 
 from clothscope.samples import load_sample_sheet, sheet_from_folder, sheet_to_tsv
-from clothscope.schema import InputError, load_schema, validate
+from clothscope.schema import InputError, apply_preset, load_schema, validate
 
 CONFIG_SCHEMA = load_schema(SCHEMAS / "config.schema.yaml")
 SAMPLE_SCHEMA = SCHEMAS / "samples.schema.yaml"
@@ -99,3 +99,21 @@ def test_sheet_from_folder_tree(tmp_path):
 def test_sheet_from_empty_folder_is_an_error(tmp_path):
     with pytest.raises(InputError, match="no images found"):
         sheet_from_folder(tmp_path)
+
+
+def test_every_preset_is_a_valid_config_and_fast_is_cheaper():
+    base = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    schema = load_schema(SCHEMAS / "config.schema.yaml")
+    filled = {}
+    for name in ("fast", "default", "paper"):
+        filled[name] = validate(apply_preset(base | {"preset": name}, ROOT / "config" / "presets"), schema, name)
+    assert filled["default"]["fit"] == validate(base, schema, "config")["fit"]
+    for stage in ("geometry", "material", "normals"):
+        assert filled["fast"]["fit"][stage]["iterations"] < filled["default"]["fit"][stage]["iterations"]
+        assert filled["paper"]["fit"][stage]["iterations"] > filled["default"]["fit"][stage]["iterations"]
+    assert filled["paper"]["fit"]["full_effects"] and not filled["default"]["fit"]["full_effects"]
+
+
+def test_unknown_preset_is_one_line_naming_the_known_ones():
+    with pytest.raises(InputError, match=r"unknown preset 'turbo'; known: default, fast, paper"):
+        apply_preset({"preset": "turbo"}, ROOT / "config" / "presets")

@@ -53,3 +53,35 @@ def validate(instance: Any, schema: dict[str, Any], source: str) -> Any:
         message = error.message.replace("\n", " ")
         raise InputError(f"{source}: {where}: {message}")
     return filled
+
+
+def deep_merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
+    """``base`` with ``override`` merged in, nested mappings merged key by key."""
+    merged = dict(base)
+    for key, value in override.items():
+        if isinstance(value, dict) and isinstance(merged.get(key), dict):
+            merged[key] = deep_merge(merged[key], value)
+        else:
+            merged[key] = value
+    return merged
+
+
+def apply_preset(config: dict[str, Any], presets_dir: str | os.PathLike[str]) -> dict[str, Any]:
+    """Merge the fidelity preset named by ``config["preset"]`` (default ``"default"``) over ``config``.
+
+    A preset is ``<presets_dir>/<name>.yaml``; the knobs it names win over the config's.
+
+    Raises
+    ------
+    InputError
+        One line naming the unknown preset and the available ones.
+    """
+    name = str(config.get("preset", "default"))
+    path = Path(presets_dir) / f"{name}.yaml"
+    if not path.is_file():
+        known = ", ".join(sorted(p.stem for p in Path(presets_dir).glob("*.yaml")))
+        raise InputError(f"config: preset: unknown preset {name!r}; known: {known}")
+    preset = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    if not isinstance(preset, dict):
+        raise InputError(f"{path}: a preset must be a mapping of config sections")
+    return deep_merge(config, preset)

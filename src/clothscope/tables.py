@@ -241,10 +241,9 @@ def sweep_figure(table: pd.DataFrame, target: str | os.PathLike[str], title: str
 
     dcs, peaks = sorted(table["dc_radius"].unique()), sorted(table["peak_size"].unique())
     ns, alphas = sorted(table["n_peaks"].unique()), sorted(table["alpha"].unique())
-    fig = Figure(figsize=(3.2 * len(peaks) + 1.5, 3.3 * len(dcs) + 1.0))
+    fig = Figure(figsize=(3.2 * len(peaks) + 1.5, 3.3 * len(dcs) + 1.0), layout="constrained")
     FigureCanvasAgg(fig)
     axes = np.atleast_2d(fig.subplots(len(dcs), len(peaks), squeeze=False))
-    fig.subplots_adjust(hspace=0.55, wspace=0.45, right=0.86, top=0.9)
     image = None
     for i, dc in enumerate(dcs):
         for j, peak in enumerate(peaks):

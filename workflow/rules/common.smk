@@ -3,11 +3,12 @@ import os
 import sys
 
 from clothscope.samples import load_sample_sheet
-from clothscope.schema import InputError, load_schema, validate
+from clothscope.schema import InputError, apply_preset, load_schema, validate
 from clothscope.synth.fabrics import FABRICS
 from clothscope.synth.generate import dataset_index
 
 SCHEMAS = os.path.join(workflow.basedir, "workflow", "schemas")
+PRESETS = os.path.join(workflow.basedir, "config", "presets")
 
 
 def fail(message):
@@ -16,6 +17,7 @@ def fail(message):
 
 
 try:
+    config.update(apply_preset(config, PRESETS))
     config.update(validate(config, load_schema(os.path.join(SCHEMAS, "config.schema.yaml")), "config"))
     SAMPLES = load_sample_sheet(config["samples"], os.path.join(SCHEMAS, "samples.schema.yaml"))
 except InputError as err:
