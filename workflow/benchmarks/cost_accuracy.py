@@ -1,0 +1,147 @@
+"""Benchmark: what accuracy costs in time, per fidelity preset and per knob.
+
+Each variant is a preset plus optional knob overrides, run through the real
+workflow into its own results folder (``<out>/<variant>/``), prepared images
+copied from the main results when present. Presets run on the whole sample
+sheet and are scored by LOOCV too; knob variants run on a subset (one image
+per class by default) and are scored on reconstruction only. The default
+preset's numbers are read from the main results folder when it is complete
+(``results/reports/fit_accuracy.csv``), so they are not recomputed.
+
+    .venv/bin/python workflow/benchmarks/cost_accuracy.py [--variants fast,iters40,...] [--out results/bench/cost]
+
+Writes ``results/reports/cost_accuracy.csv`` (one row per image and variant,
+with the variant's LOOCV accuracy when measured) and
+``results/reports/cost_accuracy.png`` (median time against median error per
+variant, Pareto front drawn).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from clothscope.atomic import write_text, write_with
+
+ROOT = Path(__file__).resolve().parents[2]
+SUBSET = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_gauze_ivory,knit_jersey_charcoal,velvet_ivory"
+#: variant -> (preset, overlay of knobs, runs on the whole sheet)
+VARIANTS: dict[str, tuple[str, dict, bool]] = {
+    "fast": ("fast", {}, True),
+    "default": ("default", {}, True),
+    "normals-iters-20": ("default", {"fit": {"normals": {"iterations": 20, "joint_iterations": 15}}}, False),
+    "normals-iters-40": ("default", {"fit": {"normals": {"iterations": 40, "joint_iterations": 30}}}, False),
+    "spp-1": ("default", {"fit": {"geometry": {"spp": 4}, "material": {"spp": 1}, "normals": {"spp": 1}}}, False),
+    "spp-16": ("default", {"fit": {"geometry": {"spp": 64}, "material": {"spp": 16}, "normals": {"spp": 16}}}, False),
+    "geometry-iters-50": ("default", {"fit": {"geometry": {"iterations": 50}}}, False),
+    "geometry-res-128": ("default", {"fit": {"geometry": {"resolution": 128}}}, False),
+}
+ERRORS = ("psnr_db", "fold_normal_error_deg", "roughness_error", "period_error")
+
+
+def sheet_for(images: list[str] | None, target: Path) -> Path:
+    sheet = pd.read_csv(ROOT / "config" / "samples.tsv", sep="\t", dtype=str, keep_default_na=False)
+    if images is not None:
+        sheet = sheet[sheet["image_id"].isin(images)]
+    target.parent.mkdir(parents=True, exist_ok=True)
+    sheet.to_csv(target, sep="\t", index=False)
+    return target
+
+
+def run_variant(name: str, out: Path, subset: list[str]) -> pd.DataFrame:
+    """Fit (and for whole-sheet variants classify) one variant; returns its fit_accuracy rows."""
+    preset, overlay, whole = VARIANTS[name]
+    main = ROOT / "results"
+    if name == "default" and (main / "reports" / "fit_accuracy.csv").exists() and (main / "reports" / "fitted" / "accuracy.json").exists():
+        results = main
+    else:
+        results = out / name
+        results.mkdir(parents=True, exist_ok=True)
+        if (main / "prepared").exists() and not (results / "prepared").exists():
+            shutil.copytree(main / "prepared", results / "prepared")
+        (results / "overlay.yaml").write_text(json.dumps(overlay))
+        sheet = sheet_for(None if whole else subset, results / "samples.tsv")
+        targets = [str(results / "reports" / "fit_accuracy.csv")]
+        if whole:
+            targets.append(str(results / "reports" / "fitted" / "accuracy.json"))
+        subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--rerun-triggers", "mtime", "--configfile",
+                        "config/config.yaml", str(results / "overlay.yaml"), "--quiet", "all", "--config", f"preset={preset}",
+                        f"samples={sheet}", f"results={results}", "--", *targets], cwd=ROOT, check=True)
+    table = pd.read_csv(results / "reports" / "fit_accuracy.csv").assign(variant=name, preset=preset, whole_sheet=whole)
+    accuracy = results / "reports" / "fitted" / "accuracy.json"
+    table["loocv_accuracy"] = json.loads(accuracy.read_text())["accuracy"] if whole and accuracy.exists() else np.nan
+    return table
+
+
+def pareto(points: pd.DataFrame, cost: str, error: str) -> pd.DataFrame:
+    """Variants no other variant beats on both cost and error (lower is better on both)."""
+    ordered = points.sort_values([cost, error])
+    front, best = [], np.inf
+    for _, row in ordered.iterrows():
+        if row[error] < best:
+            front.append(row)
+            best = row[error]
+    return pd.DataFrame(front)
+
+
+def plot(summary: pd.DataFrame, target: Path) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    panels = [("psnr_loss_db", "40 dB - median re-render PSNR (dB)"), ("fold_normal_error_deg", "median fold normal error (deg)"),
+              ("period_error", "median thread-period error (fraction)"), ("loocv_error", "LOOCV error, 7 classes (fraction)")]
+    fig = Figure(figsize=(12, 9), layout="constrained")
+    FigureCanvasAgg(fig)
+    for ax, (column, label) in zip(fig.subplots(2, 2).ravel(), panels):
+        data = summary.dropna(subset=[column])
+        ax.scatter(data["total_s"], data[column], color="tab:blue")
+        for _, row in data.iterrows():
+            ax.annotate(row["variant"], (row["total_s"], row[column]), fontsize=8, xytext=(4, 3), textcoords="offset points")
+        front = pareto(data, "total_s", column)
+        if len(front):
+            ax.plot(front["total_s"], front[column], color="tab:red", label="Pareto front")
+            ax.legend(loc="upper right")
+        ax.set_xlabel("median fit wall time per 256 px image (s, 2 cores shared by 2 jobs)")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    fig.suptitle("clothscope: accuracy against time per fidelity preset and knob (synthetic set; lower is better)")
+    write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=100))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--variants", default=",".join(VARIANTS))
+    parser.add_argument("--images", default=SUBSET, help="subset for the knob variants")
+    parser.add_argument("--out", default="results/bench/cost")
+    args = parser.parse_args()
+    out = (ROOT / args.out).resolve()
+    subset = args.images.split(",")
+    table = pd.concat([run_variant(v, out, subset) for v in args.variants.split(",")], ignore_index=True)
+    default_rows = table[(table["variant"] == "default") & table["image_id"].isin(subset)]
+    table = pd.concat([table, default_rows.assign(variant="default (subset)", whole_sheet=False, loocv_accuracy=np.nan)],
+                      ignore_index=True)
+    reports = ROOT / "results" / "reports"
+    reports.mkdir(parents=True, exist_ok=True)
+    write_text(reports / "cost_accuracy.csv", table.to_csv(index=False))
+    fitted = table[table["status"] == "fitted"]
+    summary = fitted.groupby("variant").agg(
+        total_s=("total_s", "median"), max_rss_mb=("max_rss_mb", "max"), psnr_db=("psnr_db", "median"),
+        fold_normal_error_deg=("fold_normal_error_deg", "median"), roughness_error=("roughness_error", "median"),
+        period_error=("period_error", lambda s: s[s >= 0].median()), loocv_accuracy=("loocv_accuracy", "first"),
+        images=("image_id", "count")).reset_index()
+    summary["psnr_loss_db"] = 40.0 - summary["psnr_db"]
+    summary["loocv_error"] = 1.0 - summary["loocv_accuracy"]
+    write_text(reports / "cost_accuracy_summary.csv", summary.to_csv(index=False))
+    plot(summary, reports / "cost_accuracy.png")
+    print(summary.round(4).to_markdown(index=False))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
