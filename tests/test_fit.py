@@ -34,14 +34,14 @@ def mi():
     return mitsuba_for("llvm_ad_rgb", 2)
 
 
-def run_tiny_fit(photo_path, tmp_path, full_effects: bool = False) -> dict:
+def run_tiny_fit(photo_path, tmp_path, full_effects: bool = False, normals: NormalSettings | None = None) -> dict:
     """prepare -> geometry -> material -> normals on tiny settings; returns the final state."""
     prepared, fit = tmp_path / "prepared", tmp_path / "fit"
     prepare_image("case", photo_path, prepared, PrepareSettings(working_resolution=64))
     common = dict(variant="llvm_ad_rgb", threads=2, full_effects=full_effects, log=LOG)
     jobs.geometry_job(str(prepared), str(fit / "geometry"), TINY["geometry"], **common)
     jobs.material_job(str(prepared), str(fit / "geometry"), str(fit / "material"), TINY["material"], **common)
-    jobs.normals_job(str(prepared), str(fit / "material"), str(fit / "normals"), TINY["normals"], **common)
+    jobs.normals_job(str(prepared), str(fit / "material"), str(fit / "normals"), normals or TINY["normals"], **common)
     return json.loads((fit / "normals" / "state.json").read_text())
 
 
@@ -85,6 +85,14 @@ def test_tiny_fit_of_a_synthetic_photo_writes_every_output(tmp_path):
     assert state["effects"][0]["integrator"] == "direct"
     assert state["psnr_db"] > 15.0
     assert_all_finite(state, tmp_path / "fit" / "normals")
+
+
+def test_normals_without_joint_pass_keep_the_material_stage_bsdf(tmp_path):
+    settings = NormalSettings(resolution=32, spp=2, texture=32, iterations=4, joint_iterations=0)
+    state = run_tiny_fit(SYNTHETIC / "satin" / "satin_red.png", tmp_path, normals=settings)
+    material = json.loads((tmp_path / "fit" / "material" / "state.json").read_text())["material"]
+    assert state["status"] == "fitted" and state["material"] == material
+    assert len(state["stopped"]) == 1 and not state["warnings"]
 
 
 HARD_CASES = {

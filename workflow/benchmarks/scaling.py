@@ -34,6 +34,7 @@ TWO_PER_CLASS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "
 def snakemake(results: Path, cores: int, overlay: dict, sheet: Path, home: str) -> float:
     """Run every image's fit into ``results`` from scratch; returns the wall time."""
     shutil.rmtree(results / "fit", ignore_errors=True)
+    results.mkdir(parents=True, exist_ok=True)
     (results / "overlay.yaml").write_text(json.dumps(overlay))
     images = pd.read_csv(sheet, sep="\t")["image_id"]
     targets = [str(results / "fit" / i / "normals") for i in images]

@@ -120,12 +120,12 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
         write_exr(tmp / "height.exr", np.repeat(height[..., None], 3, axis=2).astype(np.float32))
         write_png(tmp / "normal.png", normals * 0.5 + 0.5)
         texels_per_pixel = settings.texture / (photo.resolution * (1 + fit.margin))
-        record = {"effects": [plan.as_record()], "warnings": loops[0].warnings + loops[1].warnings,
-                  "stopped": [loops[0].stopped, loops[1].stopped], "final_loss": min(l.best_loss for l in loops),
+        record = {"effects": [plan.as_record()], "warnings": [w for loop in loops for w in loop.warnings],
+                  "stopped": [loop.stopped for loop in loops], "final_loss": min(loop.best_loss for loop in loops),
                   "settings": settings.__dict__, "material": fit.material.as_dict(), "texels_per_pixel": texels_per_pixel}
         write_json(tmp / "material.json", {"material": fit.material.as_dict(), "effects": [plan.as_record()],
                                            "refined_jointly_with_normal_map": True, "texels_per_pixel": texels_per_pixel})
-        curve = [r | {"phase": "normals"} for r in loops[0].curve] + [r | {"phase": "normals+bsdf"} for r in loops[1].curve]
+        curve = [r | {"phase": phase} for phase, loop in zip(("normals", "normals+bsdf"), loops) for r in loop.curve]
         return _write_common(tmp, mi, fit, photo, curve, record, normals * 0.5 + 0.5, "normal.png")
 
     return _run_job(out_dir, "normals", log, body)

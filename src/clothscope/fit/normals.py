@@ -86,6 +86,8 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     first = optimise(mi, height0, loss_fn, LoopSettings(settings.iterations, settings.learning_rate, settings.patience,
                                                         settings.min_improvement), log, "normals")
     joint_start = first.best | fixed
+    if settings.joint_iterations == 0:  # BSDF kept from the material stage
+        return first.best["height"].reshape(size, size).astype(np.float64), fit.material, [first]
     second = optimise(mi, joint_start, loss_fn, LoopSettings(settings.joint_iterations, settings.joint_learning_rate,
                                                              settings.patience, settings.min_improvement), log, "normals+bsdf")
     best = second.best if second.best_loss <= first.best_loss else joint_start
