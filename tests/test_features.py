@@ -14,7 +14,7 @@ import yaml
 from conftest import ROOT, SCHEMAS, SYNTHETIC, job_counts, run_snakemake
 
 from clothscope.features import (EXTRA_COLUMNS, concat_rows, config_hash, feature_row, feature_schema, features_job,
-                                 load_fitted, load_truth, paper_feature_columns, specular_norm, unusable_row, write_rows)
+                                 load_fitted, load_truth, paper_feature_columns, unusable_row, write_rows)
 from clothscope.imageio import read_png, write_exr
 from clothscope.schema import load_schema, validate
 from clothscope.spectrum import SpectrumSettings, analyse_normal_map

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..synth.scene import cloth_mesh, grid_faces, grid_normals
+from ..synth.scene import cloth_mesh
 
 CAMERA_DISTANCE = 3.0
 WHITE_PATCH_READING = 0.85
@@ -158,12 +158,3 @@ def build_scene(mi: ModuleType, fit: FitScene, resolution: int, integrator: dict
         "cloth": mesh,
     })
 
-
-def mesh_faces(n: int) -> np.ndarray:
-    """Triangles of the n x n grid (shared with the synthetic scene)."""
-    return grid_faces(n)
-
-
-def vertex_normals(grid: np.ndarray) -> np.ndarray:
-    """Per-vertex unit normals of an (n, n, 3) grid."""
-    return grid_normals(grid)
