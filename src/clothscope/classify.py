@@ -331,6 +331,23 @@ def posterior_column(fabric_class: str) -> str:
 # --------------------------------------------------------------------------- LOOCV
 
 
+def _labelled_data(table: pd.DataFrame, feature_columns: list[str], min_per_class: int,
+                   purpose: str) -> tuple[pd.DataFrame, dict, list[str], list[str], list[str], np.ndarray, np.ndarray]:
+    """Labelled rows of classes with enough images, their usable (non-constant) features and labels.
+
+    Returns labelled rows, excluded classes, notes, used and dropped columns, X and y.
+    """
+    columns = _check_table(table, feature_columns)
+    labelled, _ = split_labelled(table)
+    labelled, excluded, notes = _select_classes(labelled, min_per_class, purpose)
+    X_all = _features(labelled, columns, "labelled rows")
+    used, dropped, drop_notes = _drop_constant(X_all, columns)
+    notes.extend(drop_notes)
+    X = X_all[:, [columns.index(c) for c in used]]
+    y = np.array([str(c) for c in labelled["fabric_class"]], dtype=object)
+    return labelled, excluded, notes, used, dropped, X, y
+
+
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto") -> LoocvResult:
     """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
 
@@ -360,14 +377,8 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         than two classes with enough images.
     """
     reg = _check_reg(reg)
-    columns = _check_table(table, feature_columns)
-    labelled, _ = split_labelled(table)
-    labelled, excluded, notes = _select_classes(labelled, MIN_LOOCV_PER_CLASS, "leave-one-out cross-validation")
-    X_all = _features(labelled, columns, "labelled rows")
-    used, dropped, drop_notes = _drop_constant(X_all, columns)
-    notes.extend(drop_notes)
-    X = X_all[:, [columns.index(c) for c in used]]
-    y = np.array([str(c) for c in labelled["fabric_class"]], dtype=object)
+    labelled, excluded, notes, used, dropped, X, y = _labelled_data(table, feature_columns, MIN_LOOCV_PER_CLASS,
+                                                                     "leave-one-out cross-validation")
     ids = labelled["image_id"].astype(str).tolist()
     classes = sorted(set(y))
     n = len(y)
@@ -468,14 +479,8 @@ def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | st
     QdaModel
     """
     reg = _check_reg(reg)
-    columns = _check_table(table, feature_columns)
-    labelled, _ = split_labelled(table)
-    labelled, excluded, notes = _select_classes(labelled, MIN_TRAIN_PER_CLASS, "training QDA")
-    X_all = _features(labelled, columns, "labelled rows")
-    used, dropped, drop_notes = _drop_constant(X_all, columns)
-    notes.extend(drop_notes)
-    X = X_all[:, [columns.index(c) for c in used]]
-    y = np.array([str(c) for c in labelled["fabric_class"]], dtype=object)
+    labelled, excluded, notes, used, dropped, X, y = _labelled_data(table, feature_columns, MIN_TRAIN_PER_CLASS,
+                                                                     "training QDA")
     pipeline = _fit(reg, X, y, notes)
     counts = pd.Series(y).value_counts()
     return QdaModel(
