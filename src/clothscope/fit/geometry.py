@@ -13,12 +13,14 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
+from scipy.special import expit
 
 from .effects import Evidence, geometry_evidence, plan_stage
 from .light import estimate_light, lambert_falloff, plane_points
 from .loop import LoopSettings, optimise
 from .model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
-from .stage import Target, at_resolution, image_loss, logit, render, sigmoid
+from .material import base_color
+from .stage import Target, at_resolution, image_loss, logit, render
 
 
 @dataclass(frozen=True)
@@ -60,7 +62,7 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
     log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
     loop, steps = run_vertex_loop(mi, fit, target, plan, settings, log)
     fit.grid = grid_from(mi, steps, loop.best["u"], fit.grid)
-    fit.material = Material(tuple(float(c) for c in 1 / (1 + np.exp(-loop.best["color"]))), material.specular, material.roughness)
+    fit.material = Material(tuple(float(c) for c in expit(loop.best["color"])), material.specular, material.roughness)
     evidence = geometry_evidence(fit.grid, camera)
     plans = [plan.as_record()]
     warnings = list(loop.warnings)
@@ -95,7 +97,7 @@ def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, se
         v = dr.unravel(mi.Point3f, steps.from_differential(opt["u"]))
         z = v.z - dr.mean(v.z)
         params[BSDF_KEYS["vertices"]] = dr.ravel(mi.Point3f(xy.x, xy.y, z))
-        params[BSDF_KEYS["base_color"]] = mi.Color3f(*(sigmoid(dr.gather(mi.Float, opt["color"], i)) for i in range(3)))
+        params[BSDF_KEYS["base_color"]] = base_color(mi, opt["color"])
         params.update()
         return image_loss(mi, render(mi, scene, params, settings.spp, it), target)
 

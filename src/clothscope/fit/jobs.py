@@ -51,20 +51,20 @@ def _run_job(out_dir: str | os.PathLike[str], stage: str, log: logging.Logger,
     return record
 
 
-def _render_fit(mi: Any, fit: FitScene, resolution: int, texture: np.ndarray | None = None) -> np.ndarray:
+def _render_fit(mi: Any, fit: FitScene, resolution: int, texture: np.ndarray | None = None) -> tuple[np.ndarray, Any]:
+    """The fit re-rendered at ``resolution`` (linear RGB) and the scene it was rendered from."""
     scene = build_scene(mi, fit, resolution, {"type": "direct"}, normal_texture=texture)
-    return np.array(mi.render(scene, spp=PREVIEW_SPP, seed=7), dtype=np.float32)[..., :3]
+    return np.array(mi.render(scene, spp=PREVIEW_SPP, seed=7), dtype=np.float32)[..., :3], scene
 
 
 def _write_common(tmp: Path, mi: Any, fit: FitScene, photo: Target, curve: list[dict[str, float]],
                   record: dict[str, Any], texture: np.ndarray | None, normal_file: str | None) -> dict[str, Any]:
     """Outputs every stage writes: loss curve, side-by-side PNG, mesh, scene file and state."""
-    rendered = _render_fit(mi, fit, photo.resolution, texture)
+    rendered, scene = _render_fit(mi, fit, photo.resolution, texture)
     record["psnr_db"] = psnr(rendered, photo)
     write_loss_curve(tmp / "loss.csv", curve)
     write_comparison(tmp / "compare.png", photo, rendered)
-    mesh = build_scene(mi, fit, 8, {"type": "direct"}).shapes()[0]
-    mesh.write_ply(str(tmp / MESH_FILE))
+    scene.shapes()[0].write_ply(str(tmp / MESH_FILE))
     write_text(tmp / "scene.xml", scene_xml(fit, MESH_FILE, normal_file, photo.resolution))
     save_state(tmp, fit, record | {"runtime": runtime_metadata(mi)})
     return record

@@ -53,7 +53,7 @@ def _finite(values: Variables) -> bool:
 
 
 def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int], Any], settings: LoopSettings,
-             log: logging.Logger, name: str, lr_scale: dict[str, float] | None = None) -> LoopResult:
+             log: logging.Logger, name: str) -> LoopResult:
     """Minimise ``loss_fn(variables, iteration)`` with Adam from ``initial``.
 
     Parameters
@@ -62,15 +62,11 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
     initial : name -> flat float32 array of each optimised variable.
     loss_fn : builds the scene from the optimiser's variables (a dict-like of
         differentiable arrays), renders and returns a scalar differentiable loss.
-    lr_scale : per-variable learning-rate multipliers.
     """
     import drjit as dr
 
     lr = settings.learning_rate
-    scale = lr_scale or {}
     opt = mi.ad.Adam(lr=lr, params={k: mi.Float(v) for k, v in initial.items()})
-    for key, factor in scale.items():
-        opt.set_learning_rate({key: lr * factor})
     result = LoopResult(best={k: v.copy() for k, v in initial.items()}, best_loss=math.inf)
     restarts, since_progress, started = 0, 0, time.perf_counter()
     for it in range(settings.iterations):
@@ -86,8 +82,6 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
                 break
             lr /= 2
             opt = mi.ad.Adam(lr=lr, params={k: mi.Float(v) for k, v in result.best.items()})
-            for key, factor in scale.items():
-                opt.set_learning_rate({key: lr * factor})
             continue
         if value < result.best_loss * (1 - settings.min_improvement):
             since_progress = 0

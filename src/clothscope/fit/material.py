@@ -12,6 +12,7 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
+from scipy.special import expit
 
 from .effects import Plan
 from .loop import LoopSettings, optimise
@@ -39,16 +40,21 @@ def material_latents(material: Material, min_roughness: float) -> dict[str, np.n
 
 def material_from_latents(latents: dict[str, np.ndarray], min_roughness: float) -> Material:
     """Inverse of :func:`material_latents` on plain arrays."""
-    s = lambda x: 1 / (1 + np.exp(-np.asarray(x, dtype=np.float64)))  # noqa: E731
-    return Material(tuple(float(c) for c in s(latents["color"])), float(s(latents["specular"])[0]),
-                    float(min_roughness + (1 - min_roughness) * s(latents["roughness"])[0]))
+    s = {key: expit(np.asarray(value, dtype=np.float64)) for key, value in latents.items()}
+    return Material(tuple(float(c) for c in s["color"]), float(s["specular"][0]),
+                    float(min_roughness + (1 - min_roughness) * s["roughness"][0]))
+
+
+def base_color(mi: ModuleType, latent: Any) -> Any:
+    """Differentiable RGB base colour in (0, 1) of its 3-element latent."""
+    import drjit as dr
+
+    return mi.Color3f(*(sigmoid(dr.gather(mi.Float, latent, i)) for i in range(3)))
 
 
 def apply_material(mi: ModuleType, params: Any, latents: Any, min_roughness: float) -> None:
     """Write differentiable material latents into the scene parameters."""
-    import drjit as dr
-
-    params[BSDF_KEYS["base_color"]] = mi.Color3f(*(sigmoid(dr.gather(mi.Float, latents["color"], i)) for i in range(3)))
+    params[BSDF_KEYS["base_color"]] = base_color(mi, latents["color"])
     params[BSDF_KEYS["specular"]] = sigmoid(latents["specular"])
     params[BSDF_KEYS["roughness"]] = min_roughness + (1 - min_roughness) * sigmoid(latents["roughness"])
 

@@ -75,10 +75,11 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     params = mi.traverse(scene)
     neighbours = {k: mi.UInt32(v) for k, v in neighbour_indices(size).items()}
     fixed = material_latents(fit.material, settings.min_roughness)
+    fixed_arrays = {k: mi.Float(v) for k, v in fixed.items()}  # device copies made once, used while the BSDF is held
 
     def loss_fn(opt, it):
         params[BSDF_KEYS["normalmap"]] = normal_texture(mi, opt["height"], neighbours, size)
-        apply_material(mi, params, {k: (opt[k] if k in opt else mi.Float(v)) for k, v in fixed.items()}, settings.min_roughness)
+        apply_material(mi, params, {k: opt[k] if k in opt else fixed_arrays[k] for k in fixed}, settings.min_roughness)
         params.update()
         return image_loss(mi, render(mi, scene, params, settings.spp, it), target)
 

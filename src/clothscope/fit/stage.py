@@ -11,11 +11,10 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
-from PIL import Image
 
 from ..atomic import write_json, write_text, write_with
 from ..imageio import linear_to_srgb, read_png, write_png
-from ..prepare import CLIPPED_FILE, IMAGE_FILE, read_status
+from ..prepare import CLIPPED_FILE, IMAGE_FILE, read_status, resize_channel
 from .model import FitCamera, FitScene, Material, PointLight
 
 STATE_FILE = "state.json"
@@ -52,7 +51,7 @@ def load_prepared(prepared_dir: str | os.PathLike[str]) -> Target:
 
 
 def box_downsample(array: np.ndarray, size: int) -> np.ndarray:
-    """Area-average an (H, W[, C]) array to size x size (H must be a multiple of size, else bilinear)."""
+    """Area-average an (H, W[, C]) array to size x size (exact block means when H is a multiple of size)."""
     height = array.shape[0]
     if height == size:
         return array.astype(np.float32)
@@ -60,10 +59,9 @@ def box_downsample(array: np.ndarray, size: int) -> np.ndarray:
         f = height // size
         shape = (size, f, size, f) + array.shape[2:]
         return array.reshape(shape).mean(axis=(1, 3)).astype(np.float32)
-    channels = array[..., None] if array.ndim == 2 else array
-    out = np.stack([np.asarray(Image.fromarray(channels[..., c].astype(np.float32), mode="F")
-                               .resize((size, size), Image.Resampling.BOX)) for c in range(channels.shape[2])], -1)
-    return out[..., 0] if array.ndim == 2 else out
+    if array.ndim == 2:
+        return resize_channel(array, size)
+    return np.stack([resize_channel(array[..., c], size) for c in range(array.shape[2])], axis=-1)
 
 
 def at_resolution(target: Target, size: int) -> Target:
