@@ -28,3 +28,24 @@ def test_metadata_records_variant():
 
     meta = runtime_metadata(mitsuba_for("llvm_ad_rgb", threads=2))
     assert meta["mitsuba_variant"] == "llvm_ad_rgb" and meta["mitsuba_version"] == "3.9.1"
+
+
+def test_exr_io_after_a_one_thread_job_does_not_hang(tmp_path):
+    """A second fit in one process reads and writes EXR after the first set 1 Dr.Jit thread."""
+    import subprocess
+    import sys
+    import textwrap
+
+    script = textwrap.dedent(f"""
+        import numpy as np, drjit as dr
+        from clothscope.imageio import decode_exr, read_exr, write_exr
+        from clothscope.runtime import mitsuba_for
+        mitsuba_for("llvm_ad_rgb", threads=1)
+        write_exr({str(tmp_path / 'a.exr')!r}, np.full((64, 64, 3), 0.25, np.float32))
+        assert read_exr({str(tmp_path / 'a.exr')!r}).shape == (64, 64, 3)
+        assert decode_exr({str(tmp_path / 'a.exr')!r}, 16, 1.0).rgb.mean() == np.float32(0.25)
+        assert dr.thread_count() == 1
+        print("ok")
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr[-2000:]

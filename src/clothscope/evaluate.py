@@ -192,6 +192,34 @@ def summarise(table: Any) -> str:
     return "\n".join(lines)
 
 
+#: errors the effects ablation compares (lower is better)
+ABLATION_ERRORS = ("fold_normal_error_deg", "roughness_error", "base_color_error", "period_error")
+
+
+def effects_comparison(table: Any, column: str, planned: str, full: str) -> str:
+    """Markdown: median errors and time of the ``planned`` rows against the ``full``-effects rows.
+
+    ``table`` holds ``fit_accuracy`` rows of both runs on the same images; ``column``
+    names the run. The checks are those of the inverse-renderer issue: every error
+    within 5% of the full-effects fit's, at no more than a quarter of its time.
+    """
+    both = table[table[column].isin([planned, full])]
+    med = both.groupby(column)[["psnr_db", *ABLATION_ERRORS, "total_s", "max_rss_mb"]].median()
+    med["period_error"] = both[both["period_error"] >= 0].groupby(column)["period_error"].median()
+    p, f = med.loc[planned], med.loc[full]
+    lines = [med.round(4).to_markdown(), "", "| check | planned | full | ratio | met |", "|---|---|---|---|---|",
+             f"| PSNR within 5% | {p['psnr_db']:.2f} | {f['psnr_db']:.2f} | {p['psnr_db'] / f['psnr_db']:.3f} | "
+             f"{'yes' if p['psnr_db'] >= 0.95 * f['psnr_db'] else 'no'} |"]
+    for error in ABLATION_ERRORS:
+        ratio = p[error] / f[error] if f[error] else float("inf")
+        lines.append(f"| {error} within 5% | {p[error]:.4f} | {f[error]:.4f} | {ratio:.3f} | "
+                     f"{'yes' if p[error] <= 1.05 * f[error] + 1e-9 else 'no'} |")
+    time_ratio = p["total_s"] / f["total_s"]
+    lines.append(f"| time <= 1/4 | {p['total_s']:.1f} s | {f['total_s']:.1f} s | {time_ratio:.3f} | "
+                 f"{'yes' if time_ratio <= 0.25 else 'no'} |")
+    return "\n".join(lines) + "\n"
+
+
 def write_accuracy_report(images: list[str], fit_dirs: list[str], truth_jsons: list[Any], benchmark_root: str,
                           table: str, summary: str) -> int:
     """Evaluate every image and write the CSV table and the Markdown summary atomically."""

@@ -6,8 +6,10 @@ as :class:`ImageRejected`, whose message is one line naming the file.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -92,8 +94,8 @@ def _normalised_channels(img: Image.Image) -> tuple[np.ndarray, int, list[str]]:
 def _decode_png16(path: Path) -> np.ndarray:
     """16-bit colour PNG pixels via Mitsuba's Bitmap (Pillow truncates them)."""
     mi = _mitsuba_scalar()
-    bitmap = mi.Bitmap(str(path))
-    return np.array(bitmap, dtype=np.float32)[..., :3] / 65535.0
+    with _thread_pool_of_two():
+        return np.array(mi.Bitmap(str(path)), dtype=np.float32)[..., :3] / 65535.0
 
 
 def _mitsuba_scalar():
@@ -105,6 +107,26 @@ def _mitsuba_scalar():
     if mi.variant() is None:
         mi.set_variant("scalar_rgb")
     return mi
+
+
+@contextlib.contextmanager
+def _thread_pool_of_two() -> Iterator[None]:
+    """Run OpenEXR I/O with at least 2 Dr.Jit threads.
+
+    Mitsuba 3.9.1's OpenEXR reader and writer wait on the Dr.Jit thread pool: once
+    a job has set 1 thread (``fit.threads: 1``), the next EXR read or write in
+    that process hangs forever.
+    """
+    import drjit as dr
+
+    threads = dr.thread_count()
+    if threads < 2:
+        dr.set_thread_count(2)
+    try:
+        yield
+    finally:
+        if threads < 2:
+            dr.set_thread_count(threads)
 
 
 def _to_rgb(channels: np.ndarray) -> np.ndarray:
@@ -156,12 +178,13 @@ def decode_exr(path: Path, min_px: int, max_megapixels: float) -> DecodedImage:
     """Decode an OpenEXR file (already linear) through Mitsuba's Bitmap."""
     mi = _mitsuba_scalar()
     try:
-        bitmap = mi.Bitmap(str(path))
+        with _thread_pool_of_two():
+            bitmap = mi.Bitmap(str(path))
+            channels = np.array(bitmap, dtype=np.float32)
     except RuntimeError as err:
         raise _reject(path, f"cannot decode OpenEXR: {str(err).splitlines()[0]}") from None
     width, height = bitmap.size()
     _check_size(path, width, height, min_px, max_megapixels)
-    channels = np.array(bitmap, dtype=np.float32)
     if channels.ndim == 2:
         channels = channels[..., None]
     rgb = _to_rgb(channels)
@@ -176,7 +199,8 @@ def decode_exr(path: Path, min_px: int, max_megapixels: float) -> DecodedImage:
 def read_exr(path: str | os.PathLike[str]) -> np.ndarray:
     """Read an OpenEXR written by :func:`write_exr` back as raw float32 (H, W, C), signs kept."""
     mi = _mitsuba_scalar()
-    data = np.array(mi.Bitmap(str(path)), dtype=np.float32)
+    with _thread_pool_of_two():
+        data = np.array(mi.Bitmap(str(path)), dtype=np.float32)
     return data[..., None] if data.ndim == 2 else data
 
 
@@ -227,14 +251,5 @@ def write_exr(target: str | os.PathLike[str], data: np.ndarray) -> None:
     data = np.ascontiguousarray(data, dtype=np.float32)
     if not np.all(np.isfinite(data)):
         raise ValueError(f"refusing to write non-finite values to {target}")
-    import drjit as dr
-
-    # Mitsuba 3.9.1's EXR writer waits on the Dr.Jit thread pool: with 1 thread it hangs forever.
-    threads = dr.thread_count()
-    if threads < 2:
-        dr.set_thread_count(2)
-    try:
+    with _thread_pool_of_two():
         write_with(target, lambda tmp: mi.Bitmap(data).write(str(tmp)))
-    finally:
-        if threads < 2:
-            dr.set_thread_count(threads)

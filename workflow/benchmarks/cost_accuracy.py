@@ -11,9 +11,11 @@ preset's numbers are read from the main results folder when it is complete
     .venv/bin/python workflow/benchmarks/cost_accuracy.py [--variants fast,iters40,...] [--out results/bench/cost]
 
 Writes ``results/reports/cost_accuracy.csv`` (one row per image and variant,
-with the variant's LOOCV accuracy when measured) and
+with the variant's LOOCV accuracy when measured),
 ``results/reports/cost_accuracy.png`` (median time against median error per
-variant, Pareto front drawn).
+variant, Pareto front drawn) and ``results/reports/cost_accuracy.md`` (the
+summary, the effects ablation side by side, and what was not measured and why).
+The ``cuda`` variant runs only where a CUDA GPU is present; ``paper`` is opt-in.
 """
 from __future__ import annotations
 
@@ -28,6 +30,8 @@ import numpy as np
 import pandas as pd
 
 from clothscope.atomic import write_text, write_with
+from clothscope.evaluate import effects_comparison
+from clothscope.runtime import cuda_available
 
 ROOT = Path(__file__).resolve().parents[2]
 SUBSET = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_gauze_ivory,knit_jersey_charcoal,velvet_ivory"
@@ -41,7 +45,14 @@ VARIANTS: dict[str, tuple[str, dict, bool]] = {
     "spp-16": ("default", {"fit": {"geometry": {"spp": 64}, "material": {"spp": 16}, "normals": {"spp": 16}}}, False),
     "geometry-iters-50": ("default", {"fit": {"geometry": {"iterations": 50}}}, False),
     "geometry-res-128": ("default", {"fit": {"geometry": {"resolution": 128}}}, False),
+    # effects ablation in the same report: the default preset with every stage forced to full effects
+    "full-effects": ("default", {"fit": {"full_effects": True}}, False),
+    # the default preset on the CUDA variant; only where a CUDA GPU is present (otherwise reported as not measured)
+    "cuda": ("default", {"variant": "cuda_ad_rgb"}, True),
+    # opt-in (not in the default list): projected at about an hour per image on 2 CPU cores
+    "paper": ("paper", {}, False),
 }
+DEFAULT_VARIANTS = [name for name in VARIANTS if name != "paper"]
 ERRORS = ("psnr_db", "fold_normal_error_deg", "roughness_error", "period_error")
 
 
@@ -114,15 +125,37 @@ def plot(summary: pd.DataFrame, target: Path) -> None:
     write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=100))
 
 
+def report(table: pd.DataFrame, summary: pd.DataFrame, not_measured: dict[str, str]) -> str:
+    """Markdown report: the per-variant summary, the effects ablation side by side, and what was not measured."""
+    lines = ["# What accuracy costs in time", "",
+             "Medians per variant (times per 256 px image with 2 images sharing 2 cores; presets on the whole sheet, "
+             "knob variants on the subset).", "", summary.round(4).to_markdown(index=False), ""]
+    if {"default (subset)", "full-effects"} <= set(table["variant"]):
+        lines += ["## Effects ablation: planned effects against forced full effects (same images)", "",
+                  effects_comparison(table, "variant", "default (subset)", "full-effects")]
+    if not_measured:
+        lines += ["## Not measured", ""] + [f"- `{name}`: {why}" for name, why in not_measured.items()] + [""]
+    return "\n".join(lines)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--variants", default=",".join(VARIANTS))
+    parser.add_argument("--variants", default=",".join(DEFAULT_VARIANTS), help=f"any of {', '.join(VARIANTS)}")
     parser.add_argument("--images", default=SUBSET, help="subset for the knob variants")
     parser.add_argument("--out", default="results/bench/cost")
     args = parser.parse_args()
     out = (ROOT / args.out).resolve()
     subset = args.images.split(",")
-    table = pd.concat([run_variant(v, out, subset) for v in args.variants.split(",")], ignore_index=True)
+    requested = args.variants.split(",")
+    unknown = sorted(set(requested) - set(VARIANTS))
+    if unknown:
+        raise SystemExit(f"cost_accuracy: error: unknown variant(s) {', '.join(unknown)}; choose from {', '.join(VARIANTS)}")
+    not_measured = {"paper": "not run: opt-in (`--variants paper`), projected at about an hour per image on 2 CPU cores "
+                             "(workflow/benchmarks/paper_projection.py)"} if "paper" not in requested else {}
+    if "cuda" in requested and not cuda_available():
+        requested.remove("cuda")
+        not_measured["cuda"] = "not measured: no CUDA GPU on this machine (Dr.Jit's CUDA backend did not initialise)"
+    table = pd.concat([run_variant(v, out, subset) for v in requested], ignore_index=True)
     default_rows = table[(table["variant"] == "default") & table["image_id"].isin(subset)]
     table = pd.concat([table, default_rows.assign(variant="default (subset)", whole_sheet=False, loocv_accuracy=np.nan)],
                       ignore_index=True)
@@ -139,7 +172,9 @@ def main() -> int:
     summary["loocv_error"] = 1.0 - summary["loocv_accuracy"]
     write_text(reports / "cost_accuracy_summary.csv", summary.to_csv(index=False))
     plot(summary, reports / "cost_accuracy.png")
-    print(summary.round(4).to_markdown(index=False))
+    text = report(table, summary, not_measured)
+    write_text(reports / "cost_accuracy.md", text)
+    print(text)
     return 0
 
 

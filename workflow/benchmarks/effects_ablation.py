@@ -18,9 +18,10 @@ from pathlib import Path
 
 import pandas as pd
 
+from clothscope.evaluate import effects_comparison
+
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_IMAGES = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_gauze_ivory,knit_jersey_charcoal,velvet_ivory"
-ERRORS = ("fold_normal_error_deg", "roughness_error", "base_color_error", "period_error")
 
 
 def subset_sheet(images: list[str], target: Path) -> Path:
@@ -42,24 +43,6 @@ def run_mode(mode: str, sheet: Path, out: Path) -> pd.DataFrame:
     return pd.read_csv(results / "reports" / "fit_accuracy.csv").assign(mode=mode)
 
 
-def compare(table: pd.DataFrame) -> str:
-    med = table.groupby("mode")[["psnr_db", *ERRORS, "total_s", "max_rss_mb"]].median()
-    periodic = table[table["period_error"] >= 0].groupby("mode")["period_error"].median()
-    med["period_error"] = periodic
-    planned, full = med.loc["planned"], med.loc["full"]
-    lines = ["# Effects ablation: planned effects vs full effects (median over images)", "",
-             med.round(4).to_markdown(), "", "| check | planned | full | ratio | met |", "|---|---|---|---|---|"]
-    psnr_ok = planned["psnr_db"] >= 0.95 * full["psnr_db"]
-    lines.append(f"| PSNR within 5% | {planned['psnr_db']:.2f} | {full['psnr_db']:.2f} | {planned['psnr_db'] / full['psnr_db']:.3f} | {'yes' if psnr_ok else 'no'} |")
-    for column in ERRORS:
-        ok = planned[column] <= 1.05 * full[column] + 1e-9
-        ratio = planned[column] / full[column] if full[column] else float("inf")
-        lines.append(f"| {column} within 5% | {planned[column]:.4f} | {full[column]:.4f} | {ratio:.3f} | {'yes' if ok else 'no'} |")
-    time_ratio = planned["total_s"] / full["total_s"]
-    lines.append(f"| time <= 1/4 | {planned['total_s']:.1f} s | {full['total_s']:.1f} s | {time_ratio:.3f} | {'yes' if time_ratio <= 0.25 else 'no'} |")
-    return "\n".join(lines) + "\n"
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--images", default=DEFAULT_IMAGES)
@@ -69,7 +52,8 @@ def main() -> int:
     sheet = subset_sheet(args.images.split(","), out / "samples.tsv")
     table = pd.concat([run_mode(mode, sheet, out) for mode in ("planned", "full")], ignore_index=True)
     table.to_csv(out / "effects_ablation.csv", index=False)
-    text = compare(table)
+    text = ("# Effects ablation: planned effects vs full effects (median over images)\n\n"
+            + effects_comparison(table, "mode", "planned", "full"))
     (out / "effects_ablation.md").write_text(text)
     print(text)
     return 0

@@ -1,0 +1,107 @@
+"""Benchmark: projected fit time per image of the ``paper`` preset, from measured per-iteration costs.
+
+The ``paper`` preset is too slow to run on the whole set on 2 CPU cores, so
+this script measures it the cheap way: it fits one image through the real
+workflow with the ``paper`` preset twice, with every stage capped at
+``--short`` and at ``--long`` iterations (the stopping rules of the preset
+are off, so each stage runs exactly that many), reads the per-stage wall
+time from the rules' ``benchmark:`` files, and fits ``seconds = fixed +
+per_iteration * iterations`` per stage. The projection is that line at the
+preset's own iteration counts. Jobs run with the configured ``fit.threads``
+(1 by default), the same as the default preset's timings in
+``results/reports/fit_accuracy.csv``.
+
+    .venv/bin/python workflow/benchmarks/paper_projection.py [--image broadcloth_red] [--short 2] [--long 6]
+
+Writes ``results/reports/paper_projection.{csv,md}``.
+"""
+from __future__ import annotations
+
+import argparse
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import yaml
+
+from clothscope.atomic import write_text
+
+ROOT = Path(__file__).resolve().parents[2]
+STAGES = ("geometry", "material", "normals")
+
+
+def run_capped(image: str, iterations: int, out: Path) -> dict[str, float]:
+    """Fit ``image`` with the paper preset and every stage capped at ``iterations``; seconds per stage."""
+    results = out / f"capped-{iterations}"
+    results.mkdir(parents=True, exist_ok=True)
+    main_prepared = ROOT / "results" / "prepared" / image
+    if main_prepared.exists() and not (results / "prepared" / image).exists():
+        shutil.copytree(main_prepared, results / "prepared" / image)
+    overlay = results / "overlay.yaml"
+    overlay.write_text(yaml.safe_dump({"fit": {stage: {"iterations": iterations} for stage in STAGES}}))
+    subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", "config/config.yaml", str(overlay),
+                    "--config", "preset=paper", f"results={results}", "--forcerun", "fit_geometry", "--quiet", "all", "--",
+                    str(results / "fit" / image / "normals")], cwd=ROOT, check=True)
+    seconds = {}
+    for stage in STAGES:
+        bench = pd.read_csv(results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv", sep="\t").iloc[-1]
+        seconds[stage] = float(bench["s"])
+    return seconds
+
+
+def paper_iterations() -> dict[str, int]:
+    """Iterations per stage of the paper preset (the joint phase is off there)."""
+    preset = yaml.safe_load((ROOT / "config" / "presets" / "paper.yaml").read_text())["fit"]
+    return {stage: int(preset[stage]["iterations"]) for stage in STAGES}
+
+
+def default_seconds(image: str) -> dict[str, float] | None:
+    """Measured default-preset seconds per stage of ``image`` from the main results, when present."""
+    table = ROOT / "results" / "reports" / "fit_accuracy.csv"
+    if not table.exists():
+        return None
+    rows = pd.read_csv(table)
+    rows = rows[rows["image_id"] == image]
+    return None if rows.empty else {stage: float(rows.iloc[0][f"{stage}_s"]) for stage in STAGES}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--image", default="broadcloth_red")
+    parser.add_argument("--short", type=int, default=2)
+    parser.add_argument("--long", type=int, default=6)
+    parser.add_argument("--out", default="results/bench/paper_projection")
+    args = parser.parse_args()
+    if not 0 < args.short < args.long:
+        raise SystemExit("paper_projection: error: need 0 < --short < --long")
+    out = (ROOT / args.out).resolve()
+    short, long = run_capped(args.image, args.short, out), run_capped(args.image, args.long, out)
+    target = paper_iterations()
+    measured = default_seconds(args.image)
+    rows = []
+    for stage in STAGES:
+        per_iteration = (long[stage] - short[stage]) / (args.long - args.short)
+        fixed = max(short[stage] - per_iteration * args.short, 0.0)
+        rows.append({"stage": stage, f"s_at_{args.short}_it": short[stage], f"s_at_{args.long}_it": long[stage],
+                     "s_per_iteration": per_iteration, "fixed_s": fixed, "paper_iterations": target[stage],
+                     "projected_s": fixed + per_iteration * target[stage],
+                     "default_measured_s": measured[stage] if measured else float("nan")})
+    table = pd.DataFrame(rows)
+    total = table[["projected_s", "default_measured_s"]].sum()
+    reports = ROOT / "results" / "reports"
+    write_text(reports / "paper_projection.csv", table.to_csv(index=False, float_format="%.4g"))
+    text = "\n".join([
+        f"# Projected time of the `paper` preset ({args.image}, 1 image, `fit.threads` as configured)", "",
+        f"Measured at {args.short} and {args.long} iterations per stage, projected linearly to the preset's counts.", "",
+        table.round(3).to_markdown(index=False), "",
+        f"Projected paper-preset fit: {total['projected_s']:.0f} s per image; default preset measured: "
+        f"{total['default_measured_s']:.1f} s (ratio {total['default_measured_s'] / total['projected_s']:.4f}).", ""])
+    write_text(reports / "paper_projection.md", text)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
