@@ -82,7 +82,7 @@ def test_tiny_fit_of_a_synthetic_photo_writes_every_output(tmp_path):
         for name in ("loss.csv", "compare.png", "scene.xml", "mesh.ply", "state.json"):
             assert (folder / name).stat().st_size > 0, (stage, name)
     assert (tmp_path / "fit" / "material" / "material.json").exists()
-    assert state["effects"][0]["integrator"] == "direct"
+    assert state["effects"][0]["integrator"] == "direct_unshadowed"
     assert state["psnr_db"] > 15.0
     assert_all_finite(state, tmp_path / "fit" / "normals")
 
@@ -178,21 +178,61 @@ def test_plateau_rule_stops_early(mi):
 
 
 def test_effects_plan_simulates_only_what_the_scene_needs():
-    camera = FitCamera()
-    flat = geometry_evidence(plane_grid(camera, 16), camera)
-    assert flat == Evidence(False, False, False)
-    assert plan_stage("geometry", flat).integrator == "direct"
-    assert plan_stage("normals", flat).integrator == "direct"
-    deep = geometry_evidence(folded_grid(0.35), camera)
+    camera, light = FitCamera(), PointLight(30.0, 45.0)
+    flat = geometry_evidence(plane_grid(camera, 16), camera, light)
+    assert flat == Evidence(False, False, False, False)
+    assert plan_stage("geometry", flat).integrator == "direct_unshadowed"
+    assert plan_stage("normals", flat).integrator == "direct_unshadowed"
+    assert geometry_evidence(plane_grid(camera, 16), camera).cast_shadows  # unknown light: assume shadows
+    deep = geometry_evidence(folded_grid(0.35), camera, light)
     assert deep.facing_folds
     assert plan_stage("material", deep).integrator == "prb" and plan_stage("material", deep).max_depth == 3
-    occluded = Evidence(self_occlusion=True)
+    shadowed = geometry_evidence(folded_grid(0.05), camera, PointLight(82.0, 0.0))
+    assert shadowed.cast_shadows and not shadowed.facing_folds
+    assert plan_stage("normals", shadowed).integrator == "direct"
+    assert not geometry_evidence(folded_grid(0.05), camera, PointLight(20.0, 0.0)).cast_shadows
+    occluded = Evidence(self_occlusion=True, cast_shadows=True)
     assert plan_stage("geometry", occluded).integrator == "direct_projective"
     assert plan_stage("normals", occluded).integrator == "direct"  # geometry fixed: no visibility gradients
     full = plan_stage("normals", flat, full_effects=True)
     assert full.integrator == "prb_projective" and full.max_depth >= 8
     for plan in (plan_stage("geometry", flat), full):
         assert not plan.spectral and not plan.polarized
+
+
+def render_with_gradient(mi, fit: FitScene, integrator: dict) -> tuple[np.ndarray, float]:
+    """64 px render of ``fit`` and the derivative of its mean with respect to roughness."""
+    import drjit as dr
+
+    scene = build_scene(mi, fit, 64, integrator)
+    params = mi.traverse(scene)
+    roughness = mi.Float(0.4)
+    dr.enable_grad(roughness)
+    params[BSDF_KEYS["roughness"]] = roughness
+    params.update()
+    image = mi.render(scene, params, spp=16, seed=3, seed_grad=4)
+    dr.backward(dr.mean(image, axis=None))
+    return np.array(image), float(dr.grad(roughness)[0])
+
+
+@pytest.mark.parametrize("amplitude, polar", [(0.0, 30.0), (0.05, 20.0)])
+def test_unshadowed_integrator_matches_direct_where_nothing_casts_shadows(mi, amplitude, polar):
+    camera, light = FitCamera(), PointLight(polar, 60.0)
+    fit = FitScene(camera, light, folded_grid(amplitude), 0.06, Material((0.6, 0.3, 0.2), 0.5, 0.4))
+    assert not geometry_evidence(fit.grid, camera, light).cast_shadows
+    direct, d_direct = render_with_gradient(mi, fit, {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0})
+    unshadowed, d_unshadowed = render_with_gradient(mi, fit, {"type": "direct_unshadowed"})
+    assert np.abs(direct - unshadowed).max() < 1e-4 * max(1.0, float(direct.max()))
+    assert d_unshadowed == pytest.approx(d_direct, rel=1e-3)
+
+
+def test_shadows_are_missing_only_from_the_unshadowed_integrator(mi):
+    camera, light = FitCamera(), PointLight(82.0, 0.0)
+    fit = FitScene(camera, light, folded_grid(0.05), 0.06, Material((0.6, 0.6, 0.6), 0.5, 0.6))
+    assert geometry_evidence(fit.grid, camera, light).cast_shadows
+    direct, _ = render_with_gradient(mi, fit, {"type": "direct"})
+    unshadowed, _ = render_with_gradient(mi, fit, {"type": "direct_unshadowed"})
+    assert unshadowed.mean() > 1.05 * direct.mean()
 
 
 def test_height_derived_normals_are_never_flipped_or_in_plane():

@@ -5,7 +5,7 @@ set (one image per class by default): once with the default effects plan and
 once with ``config/overlays/full_effects.yaml`` (prb_projective, 8 bounces, in
 every stage). Compares median errors and fit time.
 
-    .venv/bin/python workflow/benchmarks/effects_ablation.py [--images a,b] [--out results/bench/effects]
+    .venv/bin/python workflow/benchmarks/effects_ablation.py [--images a,b|all] [--out results/bench/effects]
 
 Writes ``<out>/effects_ablation.csv`` (per image and mode) and ``<out>/effects_ablation.md``.
 """
@@ -26,6 +26,8 @@ DEFAULT_IMAGES = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_
 
 def subset_sheet(images: list[str], target: Path) -> Path:
     sheet = pd.read_csv(ROOT / "config" / "samples.tsv", sep="\t", dtype=str, keep_default_na=False)
+    if images == ["all"]:
+        images = list(sheet["image_id"])
     missing = sorted(set(images) - set(sheet["image_id"]))
     if missing:
         raise SystemExit(f"effects_ablation: error: not in config/samples.tsv: {', '.join(missing)}")
@@ -45,7 +47,7 @@ def run_mode(mode: str, sheet: Path, out: Path) -> pd.DataFrame:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--images", default=DEFAULT_IMAGES)
+    parser.add_argument("--images", default=DEFAULT_IMAGES, help="comma-separated image ids, or 'all'")
     parser.add_argument("--out", default="results/bench/effects")
     args = parser.parse_args()
     out = (ROOT / args.out).resolve()

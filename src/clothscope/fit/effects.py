@@ -2,7 +2,9 @@
 
 The fit scene is one opaque cloth sheet lit by one point light. Its
 light can reach the camera after one bounce; more bounces only matter where
-the fitted cloth faces itself (deep folds). Visibility gradients (projective
+the fitted cloth faces itself (deep folds). Shadow rays only matter where the
+fitted surface can shadow itself from the light; elsewhere the planner picks
+``direct_unshadowed`` (:mod:`.integrator`). Visibility gradients (projective
 integrators) only matter where vertices move and an outline or
 self-occlusion is in view. Spectral and polarised rendering are never needed.
 The plan is decided from evidence about the image and the fitted geometry and
@@ -14,8 +16,10 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
 
-from .model import FitCamera
+from .integrator import NAME as UNSHADOWED
+from .model import FitCamera, PointLight
 
 
 @dataclass(frozen=True)
@@ -25,6 +29,7 @@ class Evidence:
     outline_in_view: bool = False  # the plane always overhangs the view in our camera model
     self_occlusion: bool = False  # some fitted surface hides another from the camera
     facing_folds: bool = False  # fitted surface patches face each other (inter-reflection)
+    cast_shadows: bool = False  # some fitted surface hides the light from another (a flat sheet never does)
 
 
 @dataclass(frozen=True)
@@ -41,8 +46,10 @@ class Plan:
 
     def integrator_dict(self) -> dict[str, Any]:
         """The Mitsuba integrator description of this plan."""
-        if self.integrator == "direct":
+        if self.integrator == "direct":  # a BSDF sample can never hit a point light
             return {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0}
+        if self.integrator == UNSHADOWED:
+            return {"type": UNSHADOWED}
         if self.integrator == "direct_projective":
             return {"type": "direct_projective"}
         if self.integrator == "prb_projective":
@@ -80,19 +87,55 @@ def plan_stage(stage: str, evidence: Evidence, full_effects: bool = False, full_
         reasons.append("no outline or self-occlusion in view: no visibility gradients")
     else:
         reasons.append("geometry fixed in this stage: no visibility gradients")
+    if not needs_bounces and not needs_visibility:
+        reasons.append("the fitted surface can shadow itself: shadow rays" if evidence.cast_shadows
+                       else "no surface can shadow another from the light: no shadow rays")
     reasons.append("no dispersion or polarisation in the model: RGB, unpolarised")
     if needs_bounces:
         integrator = "prb_projective" if needs_visibility else "prb"
         return Plan(stage, integrator, 3, needs_visibility, tuple(reasons))
-    return Plan(stage, "direct_projective" if needs_visibility else "direct", 1, needs_visibility, tuple(reasons))
+    if needs_visibility:
+        return Plan(stage, "direct_projective", 1, True, tuple(reasons))
+    return Plan(stage, "direct" if evidence.cast_shadows else UNSHADOWED, 1, False, tuple(reasons))
 
 
-def geometry_evidence(grid: np.ndarray, camera: FitCamera, facing_cos: float = 0.5) -> Evidence:
-    """Evidence from a fitted (n, n, 3) grid: self-occlusion and facing folds.
+def casts_shadows(grid: np.ndarray, light: PointLight, clearance: float = 1e-4) -> bool:
+    """True when some vertex of the (n, n, 3) height-field grid cannot see ``light``.
+
+    Marches from every vertex toward the light in steps of half a grid cell
+    and tests the bilinear height of the grid under each step; the march ends
+    once the ray rises above the highest vertex or leaves the grid.
+    """
+    n = grid.shape[0]
+    lo, hi = grid[0, 0, :2], grid[-1, -1, :2]
+    cell = float(hi[0] - lo[0]) / (n - 1)
+    points = grid.reshape(-1, 3)
+    to_light = np.asarray(light.position) - points
+    to_light /= np.linalg.norm(to_light, axis=1, keepdims=True)
+    if np.any(to_light[:, 2] <= 0):
+        return True  # the light is at or below some vertex's horizon
+    top = float(grid[..., 2].max())
+    reach = float(np.max((top - points[:, 2]) / to_light[:, 2]))
+    for t in np.arange(0.5 * cell, reach + cell, 0.5 * cell):
+        p = points + t * to_light
+        inside = (p[:, 0] >= lo[0]) & (p[:, 0] <= hi[0]) & (p[:, 1] >= lo[1]) & (p[:, 1] <= hi[1]) & (p[:, 2] <= top)
+        if not inside.any():
+            break
+        cols, rows = (p[inside, 0] - lo[0]) / cell, (p[inside, 1] - lo[1]) / cell
+        surface = ndimage.map_coordinates(grid[..., 2], [rows, cols], order=1, mode="nearest")
+        if np.any(surface > p[inside, 2] + clearance):
+            return True
+    return False
+
+
+def geometry_evidence(grid: np.ndarray, camera: FitCamera, light: PointLight | None = None,
+                      facing_cos: float = 0.5) -> Evidence:
+    """Evidence from a fitted (n, n, 3) grid: self-occlusion, facing folds and cast shadows.
 
     Self-occlusion: some vertex normal turns away from the camera ray (the
     surface folds over). Facing folds: two surface patches within a fold width
-    whose normals point toward each other at more than ``facing_cos``.
+    whose normals point toward each other at more than ``facing_cos``. Cast
+    shadows: :func:`casts_shadows` (assumed when the light is unknown).
     """
     from ..synth.scene import grid_normals
 
@@ -103,4 +146,5 @@ def geometry_evidence(grid: np.ndarray, camera: FitCamera, facing_cos: float = 0
     tilt = np.degrees(np.arccos(np.clip(normals[..., 2], -1.0, 1.0)))
     # a valley whose walls tilt toward each other by more than ~60 deg in total bounces light between them
     facing = bool(tilt.max() > np.degrees(np.arccos(facing_cos)))
-    return Evidence(outline_in_view=False, self_occlusion=self_occlusion, facing_folds=facing)
+    shadows = True if light is None else casts_shadows(grid, light)
+    return Evidence(outline_in_view=False, self_occlusion=self_occlusion, facing_folds=facing, cast_shadows=shadows)

@@ -63,7 +63,7 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
     loop, steps = run_vertex_loop(mi, fit, target, plan, settings, log)
     fit.grid = grid_from(mi, steps, loop.best["u"], fit.grid)
     fit.material = Material(tuple(float(c) for c in expit(loop.best["color"])), material.specular, material.roughness)
-    evidence = geometry_evidence(fit.grid, camera)
+    evidence = geometry_evidence(fit.grid, camera, light)
     plans = [plan.as_record()]
     warnings = list(loop.warnings)
     curve = [row | {"phase": "vertices"} for row in loop.curve]

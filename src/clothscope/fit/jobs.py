@@ -76,7 +76,7 @@ def _continue_fit(previous_dir: str, prepared_dir: str, stage: str, variant: str
     fit, _ = load_state(previous_dir)
     photo = load_prepared(prepared_dir)
     mi = mitsuba_for(variant, threads)
-    plan = plan_stage(stage, geometry_evidence(fit.grid, fit.camera), full_effects)
+    plan = plan_stage(stage, geometry_evidence(fit.grid, fit.camera, fit.light), full_effects)
     log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
     return fit, photo, mi, plan
 

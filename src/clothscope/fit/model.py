@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 
 from ..synth.scene import cloth_mesh
+from .integrator import NAME as UNSHADOWED
+from .integrator import register as register_unshadowed
 
 CAMERA_DISTANCE = 3.0
 WHITE_PATCH_READING = 0.85
@@ -138,6 +140,8 @@ def cloth_bsdf_dict(mi: ModuleType, material: Material, normal_texture: np.ndarr
 def build_scene(mi: ModuleType, fit: FitScene, resolution: int, integrator: dict[str, Any],
                 normal_texture: np.ndarray | None = None, sample_border: bool = False) -> Any:
     """Load the Mitsuba scene of a fit at ``resolution`` px with the given integrator."""
+    if integrator["type"] == UNSHADOWED:
+        register_unshadowed(mi)
     texture = flat_normal_texture(8) if normal_texture is None else normal_texture
     bsdf = mi.load_dict(cloth_bsdf_dict(mi, fit.material, texture))
     n = fit.grid.shape[0]
