@@ -111,13 +111,19 @@ def plot(summary: pd.DataFrame, target: Path) -> None:
     FigureCanvasAgg(fig)
     for ax, (column, label) in zip(fig.subplots(2, 2).ravel(), panels):
         data = summary.dropna(subset=[column])
-        ax.scatter(data["total_s"], data[column], color="tab:blue")
-        for _, row in data.iterrows():
-            ax.annotate(row["variant"], (row["total_s"], row[column]), fontsize=8, xytext=(4, 3), textcoords="offset points")
-        front = pareto(data, "total_s", column)
-        if len(front):
-            ax.plot(front["total_s"], front[column], color="tab:red", label="Pareto front")
-            ax.legend(loc="upper right")
+        for whole, (marker, color) in ((True, ("o", "tab:blue")), (False, ("^", "tab:orange"))):
+            group = data[data["whole_sheet"] == whole]
+            if group.empty:
+                continue
+            images = int(group["images"].max())
+            ax.scatter(group["total_s"], group[column], marker=marker, color=color,
+                       label=f"{'presets' if whole else 'knob variants'} ({images} images)")
+            for _, row in group.iterrows():
+                ax.annotate(row["variant"], (row["total_s"], row[column]), fontsize=8, xytext=(4, 3), textcoords="offset points")
+            front = pareto(group, "total_s", column)
+            if len(front) > 1:
+                ax.plot(front["total_s"], front[column], color=color, alpha=0.7, label=f"Pareto front ({images} images)")
+        ax.legend(loc="upper right", fontsize=8)
         ax.set_xlabel("median fit wall time per 256 px image (s, 2 cores shared by 2 jobs)")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
@@ -150,7 +156,7 @@ def main() -> int:
     unknown = sorted(set(requested) - set(VARIANTS))
     if unknown:
         raise SystemExit(f"cost_accuracy: error: unknown variant(s) {', '.join(unknown)}; choose from {', '.join(VARIANTS)}")
-    not_measured = {"paper": "not run: opt-in (`--variants paper`), projected at about an hour per image on 2 CPU cores "
+    not_measured = {"paper": "not run: opt-in (`--variants paper`), projected at about 52 min per image on 2 CPU cores "
                              "(workflow/benchmarks/paper_projection.py)"} if "paper" not in requested else {}
     if "cuda" in requested and not cuda_available():
         requested.remove("cuda")
@@ -167,7 +173,7 @@ def main() -> int:
         total_s=("total_s", "median"), max_rss_mb=("max_rss_mb", "max"), psnr_db=("psnr_db", "median"),
         fold_normal_error_deg=("fold_normal_error_deg", "median"), roughness_error=("roughness_error", "median"),
         period_error=("period_error", lambda s: s[s >= 0].median()), loocv_accuracy=("loocv_accuracy", "first"),
-        images=("image_id", "count")).reset_index()
+        images=("image_id", "count"), whole_sheet=("whole_sheet", "first")).reset_index()
     summary["psnr_loss_db"] = 40.0 - summary["psnr_db"]
     summary["loocv_error"] = 1.0 - summary["loocv_accuracy"]
     write_text(reports / "cost_accuracy_summary.csv", summary.to_csv(index=False))
