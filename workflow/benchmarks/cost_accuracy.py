@@ -21,20 +21,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from harness import ROOT, SUBSET, seed_prepared, snakemake, write_sheet
 
 from clothscope.atomic import write_text, write_with
 from clothscope.evaluate import effects_comparison
 from clothscope.runtime import cuda_available
 
-ROOT = Path(__file__).resolve().parents[2]
-SUBSET = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_gauze_ivory,knit_jersey_charcoal,velvet_ivory"
 #: variant -> (preset, overlay of knobs, runs on the whole sheet)
 VARIANTS: dict[str, tuple[str, dict, bool]] = {
     "fast": ("fast", {}, True),
@@ -56,15 +52,6 @@ DEFAULT_VARIANTS = [name for name in VARIANTS if name != "paper"]
 ERRORS = ("psnr_db", "fold_normal_error_deg", "roughness_error", "period_error")
 
 
-def sheet_for(images: list[str] | None, target: Path) -> Path:
-    sheet = pd.read_csv(ROOT / "config" / "samples.tsv", sep="\t", dtype=str, keep_default_na=False)
-    if images is not None:
-        sheet = sheet[sheet["image_id"].isin(images)]
-    target.parent.mkdir(parents=True, exist_ok=True)
-    sheet.to_csv(target, sep="\t", index=False)
-    return target
-
-
 def run_variant(name: str, out: Path, subset: list[str]) -> pd.DataFrame:
     """Fit (and for whole-sheet variants classify) one variant; returns its fit_accuracy rows."""
     preset, overlay, whole = VARIANTS[name]
@@ -74,16 +61,14 @@ def run_variant(name: str, out: Path, subset: list[str]) -> pd.DataFrame:
     else:
         results = out / name
         results.mkdir(parents=True, exist_ok=True)
-        if (main / "prepared").exists() and not (results / "prepared").exists():
-            shutil.copytree(main / "prepared", results / "prepared")
+        seed_prepared(results)
         (results / "overlay.yaml").write_text(json.dumps(overlay))
-        sheet = sheet_for(None if whole else subset, results / "samples.tsv")
+        sheet = write_sheet(None if whole else subset, results / "samples.tsv")
         targets = [str(results / "reports" / "fit_accuracy.csv")]
         if whole:
             targets.append(str(results / "reports" / "fitted" / "accuracy.json"))
-        subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--rerun-triggers", "mtime", "--configfile",
-                        "config/config.yaml", str(results / "overlay.yaml"), "--quiet", "all", "--config", f"preset={preset}",
-                        f"samples={sheet}", f"results={results}", "--", *targets], cwd=ROOT, check=True)
+        snakemake(["--rerun-triggers", "mtime", "--configfile", "config/config.yaml", str(results / "overlay.yaml"), "--quiet",
+                   "all", "--config", f"preset={preset}", f"samples={sheet}", f"results={results}", "--", *targets])
     table = pd.read_csv(results / "reports" / "fit_accuracy.csv").assign(variant=name, preset=preset, whole_sheet=whole)
     accuracy = results / "reports" / "fitted" / "accuracy.json"
     table["loocv_accuracy"] = json.loads(accuracy.read_text())["accuracy"] if whole and accuracy.exists() else np.nan

@@ -14,34 +14,24 @@ from __future__ import annotations
 
 import argparse
 import os
-import subprocess
-import sys
+import shutil
 import tempfile
-import time
 from pathlib import Path
 
 import pandas as pd
-
-ROOT = Path(__file__).resolve().parents[2]
-DEFAULT_IMAGES = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_gauze_ivory,knit_jersey_charcoal,velvet_ivory"
-STAGES = ("geometry", "material", "normals")
+from harness import ROOT, STAGES, SUBSET, snakemake, stage_benchmarks
 
 
 def run_image(image: str, results: Path, overlay: Path, home: str) -> float:
     """Fit one image through snakemake (forcing the fit stages); returns the snakemake wall time."""
-    env = dict(os.environ, HOME=home)
-    started = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", "config/config.yaml", str(overlay),
-                    "--config", f"results={results}", "--forcerun", "fit_geometry", "--quiet", "all", "--",
-                    str(results / "fit" / image / "normals")], cwd=ROOT, env=env, check=True, capture_output=True)
-    return time.perf_counter() - started
+    return snakemake(["--configfile", "config/config.yaml", str(overlay), "--config", f"results={results}", "--forcerun",
+                      "fit_geometry", "--quiet", "all", "--", str(results / "fit" / image / "normals")], home=home, capture=True)
 
 
 def stage_rows(image: str, results: Path, cache: str, snakemake_s: float) -> dict[str, float | str]:
     row: dict[str, float | str] = {"image_id": image, "cache": cache, "snakemake_wall_s": round(snakemake_s, 2)}
-    for stage in STAGES:
-        bench = pd.read_csv(results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv", sep="\t").iloc[-1]
-        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = float(bench["s"]), float(bench["max_rss"])
+    for stage, (seconds, rss) in stage_benchmarks(results, image).items():
+        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = seconds, rss
     row["fit_s"] = sum(float(row[f"{s}_s"]) for s in STAGES)
     row["max_rss_mb"] = max(float(row[f"{s}_max_rss_mb"]) for s in STAGES)
     return row
@@ -49,7 +39,7 @@ def stage_rows(image: str, results: Path, cache: str, snakemake_s: float) -> dic
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--images", default=DEFAULT_IMAGES)
+    parser.add_argument("--images", default=SUBSET)
     parser.add_argument("--out", default="results/bench/fit_timing")
     args = parser.parse_args()
     out = (ROOT / args.out).resolve()
@@ -61,7 +51,7 @@ def main() -> int:
         for cache, home in (("cold", cold_home), ("warm", cold_home)):
             for image in args.images.split(","):
                 if cache == "cold":  # every image starts from an empty kernel cache
-                    subprocess.run(["rm", "-rf", os.path.join(cold_home, ".drjit")], check=True)
+                    shutil.rmtree(os.path.join(cold_home, ".drjit"), ignore_errors=True)
                 wall = run_image(image, out / "runs", overlay, home)
                 rows.append(stage_rows(image, out / "runs", cache, wall))
                 print(rows[-1], flush=True)

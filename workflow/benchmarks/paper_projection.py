@@ -18,40 +18,28 @@ Writes ``results/reports/paper_projection.{csv,md}``.
 from __future__ import annotations
 
 import argparse
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pandas as pd
 import yaml
+from harness import ROOT, STAGES, seed_prepared, snakemake, stage_benchmarks
 
 from clothscope.atomic import write_text
 from clothscope.schema import deep_merge
-
-ROOT = Path(__file__).resolve().parents[2]
-STAGES = ("geometry", "material", "normals")
 
 
 def run_capped(image: str, iterations: int, out: Path) -> dict[str, float]:
     """Fit ``image`` with the paper preset and every stage capped at ``iterations``; seconds per stage."""
     results = out / f"capped-{iterations}"
     results.mkdir(parents=True, exist_ok=True)
-    main_prepared = ROOT / "results" / "prepared" / image
-    if main_prepared.exists() and not (results / "prepared" / image).exists():
-        shutil.copytree(main_prepared, results / "prepared" / image)
+    seed_prepared(results, image)
     # a preset's knobs win over config files, so the capped paper settings go in as an overlay on the default preset
     capped = deep_merge(paper_preset(), {"fit": {stage: {"iterations": iterations} for stage in STAGES}})
     overlay = results / "overlay.yaml"
     overlay.write_text(yaml.safe_dump(capped))
-    subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", "config/config.yaml", str(overlay),
-                    "--config", "preset=default", f"results={results}", "--forcerun", "fit_geometry", "--quiet", "all", "--",
-                    str(results / "fit" / image / "normals")], cwd=ROOT, check=True)
-    seconds = {}
-    for stage in STAGES:
-        bench = pd.read_csv(results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv", sep="\t").iloc[-1]
-        seconds[stage] = float(bench["s"])
-    return seconds
+    snakemake(["--configfile", "config/config.yaml", str(overlay), "--config", "preset=default", f"results={results}",
+               "--forcerun", "fit_geometry", "--quiet", "all", "--", str(results / "fit" / image / "normals")])
+    return {stage: seconds for stage, (seconds, _) in stage_benchmarks(results, image).items()}
 
 
 def paper_preset() -> dict:

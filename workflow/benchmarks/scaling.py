@@ -18,31 +18,25 @@ import argparse
 import json
 import os
 import shutil
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
 import pandas as pd
+from harness import ROOT, snakemake, write_sheet
 
-ROOT = Path(__file__).resolve().parents[2]
 TWO_PER_CLASS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet")
                          for d in ("red", "ivory"))
 
 
-def snakemake(results: Path, cores: int, overlay: dict, sheet: Path, home: str) -> float:
+def fit_all(results: Path, cores: int, overlay: dict, sheet: Path, home: str) -> float:
     """Run every image's fit into ``results`` from scratch; returns the wall time."""
     shutil.rmtree(results / "fit", ignore_errors=True)
     results.mkdir(parents=True, exist_ok=True)
     (results / "overlay.yaml").write_text(json.dumps(overlay))
     images = pd.read_csv(sheet, sep="\t")["image_id"]
     targets = [str(results / "fit" / i / "normals") for i in images]
-    started = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "snakemake", "--cores", str(cores), "--configfile", "config/config.yaml",
-                    str(results / "overlay.yaml"), "--quiet", "all", "--config", f"samples={sheet}", f"results={results}",
-                    "--", *targets], cwd=ROOT, env=dict(os.environ, HOME=home), check=True)
-    return time.perf_counter() - started
+    return snakemake(["--configfile", "config/config.yaml", str(results / "overlay.yaml"), "--quiet", "all", "--config",
+                      f"samples={sheet}", f"results={results}", "--", *targets], cores=cores, home=home)
 
 
 def main() -> int:
@@ -53,17 +47,15 @@ def main() -> int:
     args = parser.parse_args()
     out = (ROOT / args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
-    sheet = pd.read_csv(ROOT / "config" / "samples.tsv", sep="\t", dtype=str, keep_default_na=False)
-    subset, single = out / "subset.tsv", out / "single.tsv"
-    sheet[sheet["image_id"].isin(args.images.split(","))].to_csv(subset, sep="\t", index=False)
-    sheet[sheet["image_id"] == args.resolution_image].to_csv(single, sep="\t", index=False)
+    subset = write_sheet(args.images.split(","), out / "subset.tsv")
+    single = write_sheet([args.resolution_image], out / "single.tsv")
     rows = []
     with tempfile.TemporaryDirectory() as home:
         for cache in ("cold", "warm"):
             for cores in (1, 2):
                 if cache == "cold":
                     shutil.rmtree(os.path.join(home, ".drjit"), ignore_errors=True)
-                wall = snakemake(out / "cores", cores, {}, subset, home)
+                wall = fit_all(out / "cores", cores, {}, subset, home)
                 rows.append({"part": "cores", "cache": cache, "cores": cores, "images": len(pd.read_csv(subset, sep="\t")),
                              "resolution": 256, "wall_s": round(wall, 2)})
                 print(rows[-1], flush=True)
@@ -72,7 +64,7 @@ def main() -> int:
                     shutil.rmtree(os.path.join(home, ".drjit"), ignore_errors=True)
                 overlay = {"prepare": {"working_resolution": resolution},
                            "fit": {"threads": 2, "normals": {"resolution": resolution, "texture": resolution}}}
-                wall = snakemake(out / f"res{resolution}", 2, overlay, single, home)
+                wall = fit_all(out / f"res{resolution}", 2, overlay, single, home)
                 rows.append({"part": "resolution", "cache": cache, "cores": 2, "images": 1, "resolution": resolution,
                              "wall_s": round(wall, 2)})
                 print(rows[-1], flush=True)

@@ -1,0 +1,58 @@
+"""What the benchmark scripts share: sample-sheet subsets, Snakemake runs and the rules' benchmark files.
+
+Imported by the scripts beside it (``from harness import ...``); not a benchmark itself.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+
+from clothscope.evaluate import benchmark_seconds
+
+ROOT = Path(__file__).resolve().parents[2]
+STAGES = ("geometry", "material", "normals")
+#: one image per class
+SUBSET = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_gauze_ivory,knit_jersey_charcoal,velvet_ivory"
+
+
+def write_sheet(images: list[str] | None, target: Path) -> Path:
+    """Write the rows of ``config/samples.tsv`` for ``images`` (None or ``["all"]``: every row) to ``target``."""
+    sheet = pd.read_csv(ROOT / "config" / "samples.tsv", sep="\t", dtype=str, keep_default_na=False)
+    if images is not None and images != ["all"]:
+        missing = sorted(set(images) - set(sheet["image_id"]))
+        if missing:
+            raise SystemExit(f"{Path(sys.argv[0]).stem}: error: not in config/samples.tsv: {', '.join(missing)}")
+        sheet = sheet[sheet["image_id"].isin(images)]
+    target.parent.mkdir(parents=True, exist_ok=True)
+    sheet.to_csv(target, sep="\t", index=False)
+    return target
+
+
+def seed_prepared(results: Path, image: str | None = None) -> None:
+    """Copy prepared images (one, or all) from the main results folder into ``results`` where missing."""
+    source = ROOT / "results" / "prepared"
+    if image is not None:
+        source, results = source / image, results / "prepared"
+    target = results / source.name
+    if source.exists() and not target.exists():
+        shutil.copytree(source, target)
+
+
+def snakemake(args: list[str], cores: int = 2, home: str | None = None, capture: bool = False) -> float:
+    """Run ``snakemake --cores <cores> <args>`` in the repository; returns its wall time in seconds."""
+    env = dict(os.environ, HOME=home) if home else None
+    started = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "snakemake", "--cores", str(cores), *args], cwd=ROOT, env=env, check=True,
+                   capture_output=capture)
+    return time.perf_counter() - started
+
+
+def stage_benchmarks(results: Path, image: str) -> dict[str, tuple[float, float]]:
+    """(seconds, peak RSS MB) of each fit stage of ``image`` from the rules' ``benchmark:`` files."""
+    return {stage: benchmark_seconds(results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv") for stage in STAGES}
