@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from clothscope.evaluate import effects_comparison, fold_normal_error, period_error
+from clothscope.evaluate import effects_comparison, fold_normal_error, period_error, seen_scale
 from clothscope.fit.model import FitCamera, plane_grid
 
 
@@ -38,6 +38,16 @@ def test_period_error_takes_the_closer_knit_period_and_marks_missing_ones():
     assert period_error(8.4, knit) == pytest.approx(0.05)
     assert period_error(None, knit) == 1.0
     assert period_error(9.0, {"thread_period_px": None}) is None
+    assert period_error(10.5, knit, scale=1.05) == pytest.approx(0.0)
+
+
+def test_seen_scale_follows_the_depth_the_cloth_is_seen_at():
+    flat = {"camera": truth_camera(), "folds": []}
+    assert seen_scale(flat) == pytest.approx(1.0, abs=2e-3)  # a flat sheet at z = 0 is seen at the nominal scale
+    wide = {"amplitude": 0.15, "width": 10.0, "angle_deg": 0.0, "centre": 0.0}  # lifts the whole view by 0.15
+    assert seen_scale({"camera": truth_camera(), "folds": [wide]}) == pytest.approx(3.0 / 2.85, rel=2e-3)
+    lowered = {"camera": truth_camera(), "folds": [wide | {"amplitude": -0.15}]}
+    assert seen_scale(lowered) == pytest.approx(3.0 / 3.15, rel=2e-3)
 
 
 def ablation_rows(mode: str, seconds: float, roughness: float) -> pd.DataFrame:

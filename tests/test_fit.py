@@ -240,3 +240,25 @@ def test_height_derived_normals_are_never_flipped_or_in_plane():
     for scale in (0.0, 1.0, 1e3, 1e6):
         normals = height_to_normals_np(rng.normal(size=(16, 16)) * scale)
         assert np.all(np.isfinite(normals)) and normals[..., 2].min() > 0.0
+
+
+@pytest.mark.parametrize("pin_tilt", [True, False])
+def test_pinned_depth_removes_mean_and_tilt_alike_in_numpy_and_drjit(mi, pin_tilt):
+    import drjit as dr
+
+    from clothscope.fit.geometry import pinned_depth
+
+    grid = plane_grid(FitCamera(25.0), 16, 0.06)
+    x, y = grid[..., 0].ravel(), grid[..., 1].ravel()
+    fold = 0.05 * np.exp(-((x - 0.2) ** 2) / 0.02)
+    z = 0.3 + 0.2 * x - 0.1 * y + fold
+    slopes = (1.0 / float(x @ x), 1.0 / float(y @ y)) if pin_tilt else (0.0, 0.0)
+    pinned = pinned_depth(z, x, y, slopes, np.sum)
+    assert abs(pinned.mean()) < 1e-12
+    if pin_tilt:
+        assert max(abs(pinned @ x), abs(pinned @ y)) < 1e-10
+        assert np.ptp(pinned - fold) < 0.05  # the fold stays; only its own small plane part goes with the tilt
+    else:
+        assert np.allclose(pinned, z - z.mean())
+    in_drjit = pinned_depth(mi.Float(z), mi.Float(x), mi.Float(y), slopes, dr.sum)
+    assert np.allclose(np.array(in_drjit), pinned, atol=1e-5)
