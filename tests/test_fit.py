@@ -246,13 +246,13 @@ def test_height_derived_normals_are_never_flipped_or_in_plane():
 def test_pinned_depth_removes_mean_and_tilt_alike_in_numpy_and_drjit(mi, pin_tilt):
     import drjit as dr
 
-    from clothscope.fit.geometry import pinned_depth
+    from clothscope.fit.geometry import pinned_depth, tilt_slopes
 
     grid = plane_grid(FitCamera(25.0), 16, 0.06)
     x, y = grid[..., 0].ravel(), grid[..., 1].ravel()
     fold = 0.05 * np.exp(-((x - 0.2) ** 2) / 0.02)
     z = 0.3 + 0.2 * x - 0.1 * y + fold
-    slopes = (1.0 / float(x @ x), 1.0 / float(y @ y)) if pin_tilt else (0.0, 0.0)
+    slopes = tilt_slopes(grid, pin_tilt)
     pinned = pinned_depth(z, x, y, slopes, np.sum)
     assert abs(pinned.mean()) < 1e-12
     if pin_tilt:

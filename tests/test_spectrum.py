@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from clothscope.imageio import read_png
-from clothscope.spectrum import SpectrumSettings, analyse_normal_map, extra_features, plot_analysis
+from clothscope.spectrum import SpectrumSettings, analyse_normal_map, extra_features, plot_analysis, thread_period
 from clothscope.synth.generate import decode_normal
 
 #: Settings used at the small property-test sizes: a 2-bin DC disc, a 3-bin filter at N = 64.
@@ -217,6 +217,33 @@ def test_dominant_period_matches_ground_truth(stem, harmonic):
     assert result.dominant_period_px == pytest.approx(truth["thread_period_px"] / harmonic, rel=0.05)
     extras = extra_features(result)
     assert _all_finite(extras) and all(key.startswith("x_") for key in extras)
+
+
+@pytest.mark.parametrize("stem", ["broadcloth_ivory", "canvas_navy", "satin_red", "chiffon_charcoal", "cotton_gauze_ivory",
+                                  "knit_jersey_navy"])
+def test_thread_period_is_the_thread_spacing_not_a_harmonic(stem):
+    normal, truth = _truth(stem)
+    period = thread_period(normal, SpectrumSettings()) * 256 / normal.shape[0]
+    periods = [p for p in (truth["thread_period_px"], truth.get("course_period_px")) if p]
+    assert min(abs(period - p) / p for p in periods) < 0.02
+
+
+def test_thread_period_of_a_grating_flat_map_and_bad_input():
+    size, frequency = 128, 9.0
+    height = 0.3 * np.sin(2 * np.pi * frequency * np.arange(size) / size)[None, :].repeat(size, axis=0)
+    gx = np.gradient(height, axis=1)
+    normal = np.stack([-gx, np.zeros_like(gx), np.ones_like(gx)], axis=-1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    assert thread_period(normal, SpectrumSettings()) == pytest.approx(size / frequency, rel=0.01)
+    assert analyse_normal_map(normal, SpectrumSettings()).dominant_period_px == pytest.approx(size / (2 * frequency), rel=0.01)
+    flat = np.zeros((64, 64, 3))
+    flat[..., 2] = 1.0
+    assert thread_period(flat, SpectrumSettings()) is None
+    with pytest.raises(ValueError, match="shape"):
+        thread_period(flat[..., 2], SpectrumSettings())
+    flat[3, 3, 0] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        thread_period(flat, SpectrumSettings())
 
 
 def test_plain_weave_fundamentals_are_orthogonal():

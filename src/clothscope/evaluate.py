@@ -124,11 +124,11 @@ def period_error(fitted_period_px: float | None, truth: dict[str, Any], scale: f
 
 
 def fitted_period_px(normals: np.ndarray, texels_per_pixel: float) -> float | None:
-    """Thread period (image px) from the spectrum of a fitted normal map."""
-    from .spectrum import SpectrumSettings, analyse_normal_map
+    """Thread period (image px) from the spectrum of a fitted normal map (:func:`clothscope.spectrum.thread_period`)."""
+    from .spectrum import SpectrumSettings, thread_period
 
-    result = analyse_normal_map(normals, SpectrumSettings())
-    return None if result.dominant_period_px is None else float(result.dominant_period_px / texels_per_pixel)
+    period = thread_period(normals, SpectrumSettings())
+    return None if period is None else float(period / texels_per_pixel)
 
 
 def benchmark_seconds(path: str | os.PathLike[str]) -> tuple[float, float]:

@@ -572,6 +572,50 @@ def analyse_normal_map(normal: np.ndarray, settings: SpectrumSettings) -> Spectr
     )
 
 
+def thread_period(normal: np.ndarray, settings: SpectrumSettings) -> float | None:
+    """Thread period (texels) of a normal map: the strongest peak of its in-plane components' spectrum.
+
+    The z component is about ``1 - |grad h|**2 / 2`` of the relief ``h``: it squares
+    the slopes, so its strongest peak is often a harmonic (twice, or sqrt(2) times,
+    the thread frequency; open weaves show no peak at the thread frequency at all).
+    The in-plane components ``n_x`` and ``n_y`` are linear in the slopes and peak at
+    the thread frequency itself. Bins inside the DC disc (``settings.dc_radius_bins``)
+    are ignored; the peak is refined to sub-bin precision (:func:`refine_peak`).
+
+    Parameters
+    ----------
+    normal : numpy.ndarray
+        (N, N, 3) tangent-space unit normals, N >= 16.
+    settings : SpectrumSettings
+        Supplies the window and the DC radius.
+
+    Returns
+    -------
+    float or None
+        The period in texels; None for a flat map.
+
+    Raises
+    ------
+    ValueError
+        If the map is not (N, N, 3), is too small, or holds NaN or infinite values.
+    """
+    array = np.asarray(normal)
+    if array.ndim != 3 or array.shape[-1] != 3:
+        raise ValueError(f"normal map must have shape (H, W, 3), got {array.shape}")
+    components = [z_component(array[..., c]) for c in (0, 1)]
+    size = components[0].shape[0]
+    magnitude = np.sqrt(sum(magnitude_spectrum(c, settings.window) ** 2 for c in components))
+    dy, dx, radius = radius_grid(size)
+    magnitude[radius < settings.dc_radius_bins(size)] = 0.0
+    searched = np.where(upper_half_plane(dy, dx), magnitude, 0.0)
+    if not searched.max() > 0.0:
+        return None
+    row, col = np.unravel_index(int(np.argmax(searched)), searched.shape)
+    peak_row, peak_col = refine_peak(magnitude, int(row), int(col), 1)
+    peak_radius = math.hypot(peak_row - size // 2, peak_col - size // 2)
+    return size / peak_radius if peak_radius > 0 else None
+
+
 def _fold_angle(a: float, b: float) -> float:
     """Angle between two undirected directions (degrees), folded to [0, 90]."""
     diff = abs(a - b) % 180.0

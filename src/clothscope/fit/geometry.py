@@ -4,9 +4,11 @@ Only depth moves (x and y stay on their grid, so vertices cannot drift in
 plane) and the mean depth is pinned to 0 (so depth cannot trade against
 brightness through the light's falloff). With ``pin_tilt`` the best-fit plane
 of the depths is pinned too: a global tilt of the cloth shades like a turned
-light, the light direction is estimated on an untilted plane, so a fitted tilt
-only absorbs noise (on the synthetic set it made the fold normals worse). Fitted on a box-filtered 64 px target,
-where thread detail is averaged away and only the folds remain.
+light and the light direction is estimated on an untilted plane, so a fitted
+tilt only absorbs noise (on the synthetic set it made the fold normals worse).
+The BSDF (colour, specular, roughness) is fitted along with the depths, since
+how a fold shades depends on it. Fitted on a box-filtered 64 px target, where
+thread detail is averaged away and only the folds remain.
 """
 from __future__ import annotations
 
@@ -16,14 +18,13 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
-from scipy.special import expit
 
 from .effects import Evidence, geometry_evidence, plan_stage
 from .light import estimate_light, lambert_falloff, plane_points
 from .loop import LoopSettings, optimise
 from .model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
-from .material import base_color
-from .stage import Target, at_resolution, image_loss, logit, render
+from .material import apply_material, material_from_latents, material_latents
+from .stage import Target, at_resolution, image_loss, render
 
 
 @dataclass(frozen=True)
@@ -40,6 +41,7 @@ class GeometrySettings:
     margin: float = 0.06
     initial_roughness: float = 0.6
     initial_specular: float = 0.5
+    min_roughness: float = 0.05
     pin_tilt: bool = True
 
 
@@ -66,7 +68,7 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
     log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
     loop, steps = run_vertex_loop(mi, fit, target, plan, settings, log)
     fit.grid = grid_from(mi, steps, loop.best["u"], fit.grid, settings.pin_tilt)
-    fit.material = Material(tuple(float(c) for c in expit(loop.best["color"])), material.specular, material.roughness)
+    fit.material = material_from_latents(loop.best, settings.min_roughness)
     evidence = geometry_evidence(fit.grid, camera, light)
     plans = [plan.as_record()]
     warnings = list(loop.warnings)
@@ -76,6 +78,7 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
         log.info("fitted geometry calls for %s (%s): refining", refined.integrator, "; ".join(refined.reasons))
         second, steps = run_vertex_loop(mi, fit, target, refined, settings, log, iterations=max(settings.iterations // 3, 1))
         fit.grid = grid_from(mi, steps, second.best["u"], fit.grid, settings.pin_tilt)
+        fit.material = material_from_latents(second.best, settings.min_roughness)
         plans.append(refined.as_record())
         warnings += second.warnings
         curve += [row | {"phase": "vertices-refine"} for row in second.curve]
@@ -87,7 +90,7 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
 
 def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, settings: GeometrySettings,
                     log: logging.Logger, iterations: int | None = None) -> tuple[Any, Any]:
-    """Large Steps descent on the depth of every vertex, plus the base colour."""
+    """Large Steps descent on the depth of every vertex, plus the BSDF."""
     import drjit as dr
 
     scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), sample_border=plan.projective)
@@ -97,27 +100,32 @@ def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, se
     u0 = np.array(steps.to_differential(start), dtype=np.float32)
     xy = dr.unravel(mi.Point3f, start)
 
-    x, y = fit.grid[..., 0].ravel(), fit.grid[..., 1].ravel()
-    slopes = (1.0 / float(x @ x), 1.0 / float(y @ y)) if settings.pin_tilt else (0.0, 0.0)
+    slopes = tilt_slopes(fit.grid, settings.pin_tilt)
 
     def loss_fn(opt, it):
         v = dr.unravel(mi.Point3f, steps.from_differential(opt["u"]))
         z = pinned_depth(v.z, xy.x, xy.y, slopes, dr.sum)
         params[BSDF_KEYS["vertices"]] = dr.ravel(mi.Point3f(xy.x, xy.y, z))
-        params[BSDF_KEYS["base_color"]] = base_color(mi, opt["color"])
+        apply_material(mi, params, opt, settings.min_roughness)
         params.update()
         return image_loss(mi, render(mi, scene, params, settings.spp, it), target)
 
-    initial = {"u": u0, "color": logit(np.array(fit.material.base_color))}
+    initial = {"u": u0} | material_latents(fit.material, settings.min_roughness)
     loop_settings = LoopSettings(iterations if iterations is not None else settings.iterations, settings.learning_rate)
     return optimise(mi, initial, loss_fn, loop_settings, log, "geometry"), steps
+
+
+def tilt_slopes(grid: np.ndarray, pin_tilt: bool) -> tuple[float, float]:
+    """``(1 / sum(x**2), 1 / sum(y**2))`` over the grid's centred x and y; zeros when the tilt is free."""
+    x, y = grid[..., 0].ravel(), grid[..., 1].ravel()
+    return (1.0 / float(x @ x), 1.0 / float(y @ y)) if pin_tilt else (0.0, 0.0)
 
 
 def pinned_depth(z: Any, x: Any, y: Any, slopes: tuple[float, float], total: Any) -> Any:
     """Depths ``z`` less their mean and, where ``slopes`` is nonzero, their best-fit plane.
 
-    ``x`` and ``y`` are the centred grid coordinates, ``slopes`` is
-    ``(1 / sum(x**2), 1 / sum(y**2))`` (zeros keep the tilt) and ``total`` sums an
+    ``x`` and ``y`` are the centred grid coordinates, ``slopes`` comes from
+    :func:`tilt_slopes` (zeros keep the tilt) and ``total`` sums an
     array (``np.sum`` or ``dr.sum``), so NumPy and Dr.Jit arrays share this code.
     """
     z = z - total(z) / len(x)
@@ -127,8 +135,7 @@ def pinned_depth(z: Any, x: Any, y: Any, slopes: tuple[float, float], total: Any
 def grid_from(mi: ModuleType, steps: Any, u: np.ndarray, base: np.ndarray, pin_tilt: bool = True) -> np.ndarray:
     """(n, n, 3) grid of the differential coordinates ``u``: x, y of ``base``, depth pinned like the fit's."""
     v = np.array(steps.from_differential(mi.Float(u)), dtype=np.float64).reshape(base.shape)
-    x, y = base[..., 0].ravel(), base[..., 1].ravel()
-    slopes = (1.0 / float(x @ x), 1.0 / float(y @ y)) if pin_tilt else (0.0, 0.0)
     grid = base.copy()
-    grid[..., 2] = pinned_depth(v[..., 2].ravel(), x, y, slopes, np.sum).reshape(base.shape[:2])
+    grid[..., 2] = pinned_depth(v[..., 2].ravel(), base[..., 0].ravel(), base[..., 1].ravel(), tilt_slopes(base, pin_tilt),
+                                np.sum).reshape(base.shape[:2])
     return grid
