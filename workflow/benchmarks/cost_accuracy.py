@@ -6,9 +6,11 @@ copied from the main results when present. Presets run on the whole sample
 sheet and are scored by LOOCV too; knob variants run on a subset (one image
 per class by default) and are scored on reconstruction only. The default
 preset's numbers are read from the main results folder when it is complete
-(``results/reports/fit_accuracy.csv``), so they are not recomputed.
+(``results/reports/fit_accuracy.csv``), so they are not recomputed. Every other
+variant's folder is emptied first, so its fits and times come from the code as
+it is now (``--reuse`` keeps them, to redraw the report only).
 
-    .venv/bin/python workflow/benchmarks/cost_accuracy.py [--variants fast,iters40,...] [--out results/bench/cost]
+    .venv/bin/python workflow/benchmarks/cost_accuracy.py [--variants fast,iters40,...] [--out results/bench/cost] [--reuse]
 
 Writes ``results/reports/cost_accuracy.csv`` (one row per image and variant,
 with the variant's LOOCV accuracy when measured),
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -52,14 +55,20 @@ DEFAULT_VARIANTS = [name for name in VARIANTS if name != "paper"]
 ERRORS = ("psnr_db", "fold_normal_error_deg", "roughness_error", "period_error")
 
 
-def run_variant(name: str, out: Path, subset: list[str]) -> pd.DataFrame:
-    """Fit (and for whole-sheet variants classify) one variant; returns its fit_accuracy rows."""
+def run_variant(name: str, out: Path, subset: list[str], reuse: bool = False) -> pd.DataFrame:
+    """Fit (and for whole-sheet variants classify) one variant; returns its fit_accuracy rows.
+
+    Without ``reuse`` the variant's folder is emptied first: the workflow runs with
+    mtime rerun triggers, so results of older code would otherwise be taken as current.
+    """
     preset, overlay, whole = VARIANTS[name]
     main = ROOT / "results"
     if name == "default" and (main / "reports" / "fit_accuracy.csv").exists() and (main / "reports" / "fitted" / "accuracy.json").exists():
         results = main
     else:
         results = out / name
+        if not reuse:
+            shutil.rmtree(results, ignore_errors=True)
         results.mkdir(parents=True, exist_ok=True)
         seed_prepared(results)
         (results / "overlay.yaml").write_text(json.dumps(overlay))
@@ -134,6 +143,7 @@ def main() -> int:
     parser.add_argument("--variants", default=",".join(DEFAULT_VARIANTS), help=f"any of {', '.join(VARIANTS)}")
     parser.add_argument("--images", default=SUBSET, help="subset for the knob variants")
     parser.add_argument("--out", default="results/bench/cost")
+    parser.add_argument("--reuse", action="store_true", help="keep earlier variant results (redraw the report only)")
     args = parser.parse_args()
     out = (ROOT / args.out).resolve()
     subset = args.images.split(",")
@@ -146,7 +156,7 @@ def main() -> int:
     if "cuda" in requested and not cuda_available():
         requested.remove("cuda")
         not_measured["cuda"] = "not measured: no CUDA GPU on this machine (Dr.Jit's CUDA backend did not initialise)"
-    table = pd.concat([run_variant(v, out, subset) for v in requested], ignore_index=True)
+    table = pd.concat([run_variant(v, out, subset, args.reuse) for v in requested], ignore_index=True)
     default_rows = table[(table["variant"] == "default") & table["image_id"].isin(subset)]
     table = pd.concat([table, default_rows.assign(variant="default (subset)", whole_sheet=False, loocv_accuracy=np.nan)],
                       ignore_index=True)
