@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from harness import ROOT, SUBSET, seed_prepared, snakemake, write_sheet
+from harness import ROOT, SUBSET, publish, seed_prepared, snakemake, write_sheet
 
 from clothscope.atomic import write_text, write_with
 from clothscope.evaluate import effects_comparison
@@ -162,7 +162,6 @@ def main() -> int:
                       ignore_index=True)
     reports = ROOT / "results" / "reports"
     reports.mkdir(parents=True, exist_ok=True)
-    write_text(reports / "cost_accuracy.csv", table.to_csv(index=False))
     fitted = table[table["status"] == "fitted"]
     summary = fitted.groupby("variant").agg(
         total_s=("total_s", "median"), max_rss_mb=("max_rss_mb", "max"), psnr_db=("psnr_db", "median"),
@@ -174,8 +173,7 @@ def main() -> int:
     write_text(reports / "cost_accuracy_summary.csv", summary.to_csv(index=False))
     plot(summary, reports / "cost_accuracy.png")
     text = report(table, summary, not_measured)
-    write_text(reports / "cost_accuracy.md", text)
-    print(text)
+    publish(reports, "cost_accuracy", table, text)
     return 0
 
 

@@ -15,7 +15,7 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, SUBSET, snakemake, write_sheet
+from harness import ROOT, SUBSET, publish, snakemake, write_sheet
 
 from clothscope.evaluate import effects_comparison
 
@@ -36,11 +36,9 @@ def main() -> int:
     out = (ROOT / args.out).resolve()
     sheet = write_sheet(args.images.split(","), out / "samples.tsv")
     table = pd.concat([run_mode(mode, sheet, out) for mode in ("planned", "full")], ignore_index=True)
-    table.to_csv(out / "effects_ablation.csv", index=False)
     text = ("# Effects ablation: planned effects vs full effects (median over images)\n\n"
             + effects_comparison(table, "mode", "planned", "full"))
-    (out / "effects_ablation.md").write_text(text)
-    print(text)
+    publish(out, "effects_ablation", table, text)
     return 0
 
 

@@ -19,7 +19,7 @@ import tempfile
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, STAGES, SUBSET, snakemake, stage_benchmarks
+from harness import ROOT, STAGES, SUBSET, publish, snakemake, stage_benchmarks
 
 
 def run_image(image: str, results: Path, overlay: Path, home: str) -> float:
@@ -56,13 +56,11 @@ def main() -> int:
                 rows.append(stage_rows(image, out / "runs", cache, wall))
                 print(rows[-1], flush=True)
     table = pd.DataFrame(rows)
-    table.to_csv(out / "fit_timing.csv", index=False)
     summary = table.groupby("cache")[["geometry_s", "material_s", "normals_s", "fit_s", "snakemake_wall_s", "max_rss_mb"]]
     text = ["# Fit time per 256 px image (2 cores, one image at a time)", "",
             "Median over images:", "", summary.median().round(2).to_markdown(), "", "Maximum over images:", "",
             summary.max().round(2).to_markdown(), ""]
-    (out / "fit_timing.md").write_text("\n".join(text))
-    print("\n".join(text))
+    publish(out, "fit_timing", table, "\n".join(text))
     return 0
 
 

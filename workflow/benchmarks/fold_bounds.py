@@ -19,17 +19,15 @@ Writes ``results/reports/fold_bounds.{csv,md}``; compare with the fitted
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from harness import ROOT, publish
 
-from clothscope.atomic import write_text
 from clothscope.evaluate import angular_error_deg, camera_basis, fold_normal_error, hit_plane, pixel_rays
 from clothscope.fit.model import FitCamera, plane_grid
 from clothscope.synth.generate import fold_surface
 
-ROOT = Path(__file__).resolve().parents[2]
 RESOLUTION = 64
 
 
@@ -73,14 +71,11 @@ def main() -> int:
                      "flat_deg": flat, "light_only_deg": light_only,
                      "untilted_camera_deg": untilted_camera_error(truth, camera)})
     table = pd.DataFrame(rows)
-    reports = ROOT / "results" / "reports"
-    write_text(reports / "fold_bounds.csv", table.to_csv(index=False, float_format="%.4g"))
     medians = table[["flat_deg", "light_only_deg", "untilted_camera_deg"]].median()
     text = "\n".join(["# Fold normal error bounds (median over images, degrees)", "",
                       medians.round(2).to_frame("median").to_markdown(), "",
                       f"{len(table)} images; ground truth only (`workflow/benchmarks/fold_bounds.py`).", ""])
-    write_text(reports / "fold_bounds.md", text)
-    print(text)
+    publish(ROOT / "results" / "reports", "fold_bounds", table, text, "%.4g")
     return 0
 
 

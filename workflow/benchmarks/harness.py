@@ -1,4 +1,4 @@
-"""What the benchmark scripts share: sample-sheet subsets, Snakemake runs and the rules' benchmark files.
+"""What the benchmark scripts share: sample-sheet subsets, Snakemake runs, the rules' benchmark files and reports.
 
 Imported by the scripts beside it (``from harness import ...``); not a benchmark itself.
 """
@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from clothscope.atomic import write_text
 from clothscope.evaluate import benchmark_seconds
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -32,6 +33,13 @@ def write_sheet(images: list[str] | None, target: Path) -> Path:
     target.parent.mkdir(parents=True, exist_ok=True)
     sheet.to_csv(target, sep="\t", index=False)
     return target
+
+
+def publish(folder: Path, name: str, table: pd.DataFrame, text: str, float_format: str | None = None) -> None:
+    """Write ``<name>.csv`` (the table) and ``<name>.md`` (the text) into ``folder`` atomically, and print the text."""
+    write_text(folder / f"{name}.csv", table.to_csv(index=False, float_format=float_format))
+    write_text(folder / f"{name}.md", text)
+    print(text)
 
 
 def seed_prepared(results: Path, image: str | None = None) -> None:

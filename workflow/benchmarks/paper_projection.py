@@ -22,9 +22,8 @@ from pathlib import Path
 
 import pandas as pd
 import yaml
-from harness import ROOT, STAGES, seed_prepared, snakemake, stage_benchmarks
+from harness import ROOT, STAGES, publish, seed_prepared, snakemake, stage_benchmarks
 
-from clothscope.atomic import write_text
 from clothscope.schema import deep_merge
 
 
@@ -85,16 +84,13 @@ def main() -> int:
                      "default_measured_s": measured[stage] if measured else float("nan")})
     table = pd.DataFrame(rows)
     total = table[["projected_s", "default_measured_s"]].sum()
-    reports = ROOT / "results" / "reports"
-    write_text(reports / "paper_projection.csv", table.to_csv(index=False, float_format="%.4g"))
     text = "\n".join([
         f"# Projected time of the `paper` preset ({args.image}, 1 image, `fit.threads` as configured)", "",
         f"Measured at {args.short} and {args.long} iterations per stage, projected linearly to the preset's counts.", "",
         table.round(3).to_markdown(index=False), "",
         f"Projected paper-preset fit: {total['projected_s']:.0f} s per image; default preset measured: "
         f"{total['default_measured_s']:.1f} s (ratio {total['default_measured_s'] / total['projected_s']:.4f}).", ""])
-    write_text(reports / "paper_projection.md", text)
-    print(text)
+    publish(ROOT / "results" / "reports", "paper_projection", table, text, "%.4g")
     return 0
 
 

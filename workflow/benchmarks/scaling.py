@@ -22,7 +22,7 @@ import tempfile
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, snakemake, write_sheet
+from harness import ROOT, publish, snakemake, write_sheet
 
 TWO_PER_CLASS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet")
                          for d in ("red", "ivory"))
@@ -69,15 +69,13 @@ def main() -> int:
                              "wall_s": round(wall, 2)})
                 print(rows[-1], flush=True)
     table = pd.DataFrame(rows)
-    table.to_csv(out / "scaling.csv", index=False)
     cores = table[table["part"] == "cores"].pivot(index="cache", columns="cores", values="wall_s")
     cores["speed-up 1->2 cores"] = cores[1] / cores[2]
     res = table[table["part"] == "resolution"].pivot(index="cache", columns="resolution", values="wall_s")
     text = ["# Scaling", "", f"Fit stages of {int(table['images'].max())} images, wall seconds (snakemake included):", "",
             cores.round(2).to_markdown(), "", f"One image ({args.resolution_image}) at working resolution 128/256/512 px, 2 cores:", "",
             res.round(2).to_markdown(), ""]
-    (out / "scaling.md").write_text("\n".join(text))
-    print("\n".join(text))
+    publish(out, "scaling", table, "\n".join(text))
     return 0
 
 

@@ -39,8 +39,8 @@ def material_latents(material: Material, min_roughness: float) -> dict[str, np.n
 
 
 def material_from_latents(latents: dict[str, np.ndarray], min_roughness: float) -> Material:
-    """Inverse of :func:`material_latents` on plain arrays."""
-    s = {key: expit(np.asarray(value, dtype=np.float64)) for key, value in latents.items()}
+    """Inverse of :func:`material_latents` on plain arrays (other keys, such as vertex latents, are ignored)."""
+    s = {key: expit(np.asarray(latents[key], dtype=np.float64)) for key in ("color", "specular", "roughness")}
     return Material(tuple(float(c) for c in s["color"]), float(s["specular"][0]),
                     float(min_roughness + (1 - min_roughness) * s["roughness"][0]))
 
