@@ -94,6 +94,26 @@ def fold_normal_error(truth: dict[str, Any], grid: np.ndarray, fov_deg: float, d
     return float(np.median(error))
 
 
+def plane_normal(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Unit normal (z component positive) of the least-squares plane through points (x, y, z)."""
+    design = np.stack([np.ones(x.size), x.ravel(), y.ravel()], axis=1)
+    _, a, b = np.linalg.lstsq(design, z.ravel(), rcond=None)[0]
+    return np.array([-a, -b, 1.0]) / np.sqrt(1.0 + a * a + b * b)
+
+
+def tilt_error_deg(truth: dict[str, Any], grid: np.ndarray, resolution: int = 64) -> float:
+    """Angle (deg) between the best-fit planes of the true cloth in view and of the fitted grid.
+
+    Both in the camera's frame: the true surface seen through the true camera
+    is expressed like the fit's (x to the image right, y up, z toward the camera).
+    """
+    points, _, _, basis = truth_surface(truth, resolution)
+    view = (points - np.array(truth["camera"]["origin"])) @ basis.T  # left, up, forward
+    true_normal = plane_normal(-view[..., 0], view[..., 1], -view[..., 2])
+    fitted_normal = plane_normal(grid[..., 0], grid[..., 1], grid[..., 2])
+    return float(angular_error_deg(true_normal, fitted_normal))
+
+
 def seen_scale(truth: dict[str, Any], resolution: int = 64) -> float:
     """Mean magnification of the visible cloth relative to the plane z = 0 the nominal period is given at.
 
@@ -170,6 +190,7 @@ def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: st
         fold_normal_error_deg=fold_normal_error(truth, fit.grid, fit.camera.fov_deg, fit.camera.distance),
         flat_fold_normal_error_deg=fold_normal_error(truth, plane_grid(fit.camera, fit.grid.shape[0], fit.margin),
                                                      fit.camera.fov_deg, fit.camera.distance),
+        tilt_error_deg=tilt_error_deg(truth, fit.grid),
         roughness=material.roughness, roughness_true=truth["roughness"],
         roughness_error=abs(material.roughness - truth["roughness"]),
         specular=material.specular, specular_true=truth["specular"],
@@ -214,7 +235,7 @@ def summarise(table: Any) -> str:
             nominal = float((periodic["period_error_nominal"] <= 0.05).mean())
             lines.append(f"| period within 5% of the nominal z = 0 period | fraction of {len(periodic)} periodic | {nominal:.3f} | (for reference) | |")
     lines += ["", "## Medians per class", "", fitted.groupby("fabric_class")[
-        ["psnr_db", "fold_normal_error_deg", "flat_fold_normal_error_deg", "roughness_error", "base_color_error", "period_error", "total_s"]
+        ["psnr_db", "fold_normal_error_deg", "flat_fold_normal_error_deg", "tilt_error_deg", "roughness_error", "base_color_error", "period_error", "total_s"]
     ].median().round(3).to_markdown() if len(fitted) else "(none)", ""]
     if "period_seen_scale" in fitted and len(periodic):
         lo, hi = float(periodic["period_seen_scale"].min()), float(periodic["period_seen_scale"].max())

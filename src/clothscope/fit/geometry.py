@@ -4,8 +4,11 @@ Only depth moves (x and y stay on their grid, so vertices cannot drift in
 plane) and the mean depth is pinned to 0 (so depth cannot trade against
 brightness through the light's falloff). With ``pin_tilt`` the best-fit plane
 of the depths is pinned too: a global tilt of the cloth shades like a turned
-light and the light direction is estimated on an untilted plane, so a fitted
-tilt only absorbs noise (on the synthetic set it made the fold normals worse).
+light, so a tilt fitted from shading only absorbs noise (on the synthetic set
+it made the fold normals worse). The plane is pinned to the tilt read from
+the texture's perspective instead (:mod:`.tilt`, shrunk toward level by the
+prior ``tilt_prior_deg``; 0 pins it level), and the light, estimated against a
+level plane, is turned with it.
 The BSDF (colour, specular, roughness) is fitted along with the depths, since
 how a fold shades depends on it. Fitted on a box-filtered 64 px target, where
 thread detail is averaged away and only the folds remain.
@@ -20,11 +23,12 @@ from typing import Any
 import numpy as np
 
 from .effects import Evidence, geometry_evidence, plan_stage
-from .light import estimate_light, lambert_falloff, plane_points
+from .light import apply_light, cloth_normal, estimate_light, lambert_falloff, light_from_latent, plane_points, tilted
 from .loop import LoopSettings, optimise
 from .model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
 from .material import apply_material, material_from_latents, material_latents
 from .stage import Target, at_resolution, image_loss, render
+from .tilt import TiltEstimate, estimate_tilt
 
 
 @dataclass(frozen=True)
@@ -43,6 +47,8 @@ class GeometrySettings:
     initial_specular: float = 0.5
     min_roughness: float = 0.05
     pin_tilt: bool = True
+    tilt_prior_deg: float = 5.0
+    fit_light: bool = True
 
 
 def initial_base_color(target: Target, camera: FitCamera, light: PointLight) -> np.ndarray:
@@ -59,16 +65,22 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
     """Fit camera-facing depth of the plane mesh to ``photo``; returns the fit and its record."""
     camera = FitCamera(settings.fov_deg)
     light, light_residual = estimate_light(photo.image, photo.weight, camera)
+    tilt = estimate_tilt(photo.image, photo.weight, camera, settings.tilt_prior_deg if settings.pin_tilt else 0.0)
+    log.info("tilt from the texture's perspective: %.1f deg (slopes %+.3f, %+.3f)", tilt.degrees, tilt.slope_x, tilt.slope_y)
+    light = tilted(light, tilt.slope_x, tilt.slope_y)
     log.info("light: polar %.0f deg, azimuth %.0f deg (relative residual %.3f)", light.polar_deg, light.azimuth_deg, light_residual)
     target = at_resolution(photo, settings.resolution)
     material = Material(tuple(float(c) for c in initial_base_color(target, camera, light)),
                         settings.initial_specular, settings.initial_roughness)
-    fit = FitScene(camera, light, plane_grid(camera, settings.vertices_per_side, settings.margin), settings.margin, material)
+    fit = FitScene(camera, light, tilted_grid(plane_grid(camera, settings.vertices_per_side, settings.margin), tilt),
+                   settings.margin, material)
     plan = plan_stage("geometry", Evidence(), full_effects)
     log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
-    loop, steps = run_vertex_loop(mi, fit, target, plan, settings, log)
-    fit.grid = grid_from(mi, steps, loop.best["u"], fit.grid, settings.pin_tilt)
-    fit.material = material_from_latents(loop.best, settings.min_roughness)
+    normal = cloth_normal(tilt.slope_x, tilt.slope_y)
+    loop, steps = run_vertex_loop(mi, fit, target, plan, settings, log, normal)
+    update_fit(mi, fit, steps, loop.best, settings, normal)
+    if settings.fit_light:
+        log.info("light refined: polar %.1f deg, azimuth %.1f deg", fit.light.polar_deg, fit.light.azimuth_deg)
     evidence = geometry_evidence(fit.grid, camera, light)
     plans = [plan.as_record()]
     warnings = list(loop.warnings)
@@ -76,21 +88,25 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
     refined = plan_stage("geometry", evidence, full_effects)
     if refined.integrator != plan.integrator:
         log.info("fitted geometry calls for %s (%s): refining", refined.integrator, "; ".join(refined.reasons))
-        second, steps = run_vertex_loop(mi, fit, target, refined, settings, log, iterations=max(settings.iterations // 3, 1))
-        fit.grid = grid_from(mi, steps, second.best["u"], fit.grid, settings.pin_tilt)
-        fit.material = material_from_latents(second.best, settings.min_roughness)
+        second, steps = run_vertex_loop(mi, fit, target, refined, settings, log, normal,
+                                        iterations=max(settings.iterations // 3, 1))
+        update_fit(mi, fit, steps, second.best, settings, normal)
         plans.append(refined.as_record())
         warnings += second.warnings
         curve += [row | {"phase": "vertices-refine"} for row in second.curve]
-    record = {"light_residual": light_residual, "effects": plans, "evidence": evidence.__dict__,
+    record = {"light_residual": light_residual, "tilt": tilt.as_record(), "effects": plans, "evidence": evidence.__dict__,
               "warnings": warnings, "stopped": loop.stopped, "final_loss": loop.best_loss,
               "settings": settings.__dict__, "curve": curve}
     return fit, record
 
 
 def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, settings: GeometrySettings,
-                    log: logging.Logger, iterations: int | None = None) -> tuple[Any, Any]:
-    """Large Steps descent on the depth of every vertex, plus the BSDF."""
+                    log: logging.Logger, normal: np.ndarray, iterations: int | None = None) -> tuple[Any, Any]:
+    """Large Steps descent on the depth of every vertex, plus the BSDF and (``fit_light``) the light direction.
+
+    ``normal`` is the cloth's pinned mean normal, against which the light's
+    exposure convention is kept.
+    """
     import drjit as dr
 
     scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), sample_border=plan.projective)
@@ -101,18 +117,32 @@ def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, se
     xy = dr.unravel(mi.Point3f, start)
 
     slopes = tilt_slopes(fit.grid, settings.pin_tilt)
+    plane = mi.Float(pinned_plane(fit.grid, settings.pin_tilt).ravel().astype(np.float32))
 
     def loss_fn(opt, it):
         v = dr.unravel(mi.Point3f, steps.from_differential(opt["u"]))
-        z = pinned_depth(v.z, xy.x, xy.y, slopes, dr.sum)
+        z = pinned_depth(v.z, xy.x, xy.y, slopes, dr.sum) + plane
         params[BSDF_KEYS["vertices"]] = dr.ravel(mi.Point3f(xy.x, xy.y, z))
         apply_material(mi, params, opt, settings.min_roughness)
+        if settings.fit_light:
+            apply_light(mi, params, fit.light, opt["light"], normal)
         params.update()
         return image_loss(mi, render(mi, scene, params, settings.spp, it), target)
 
     initial = {"u": u0} | material_latents(fit.material, settings.min_roughness)
+    if settings.fit_light:
+        initial["light"] = np.zeros(2, dtype=np.float32)
     loop_settings = LoopSettings(iterations if iterations is not None else settings.iterations, settings.learning_rate)
     return optimise(mi, initial, loss_fn, loop_settings, log, "geometry"), steps
+
+
+def update_fit(mi: ModuleType, fit: FitScene, steps: Any, best: dict[str, np.ndarray], settings: GeometrySettings,
+               normal: np.ndarray) -> None:
+    """Write a vertex loop's best latents into ``fit``: depths, BSDF and light."""
+    fit.grid = grid_from(mi, steps, best["u"], fit.grid, settings.pin_tilt)
+    fit.material = material_from_latents(best, settings.min_roughness)
+    if "light" in best:
+        fit.light = light_from_latent(fit.light, best["light"], normal)
 
 
 def tilt_slopes(grid: np.ndarray, pin_tilt: bool) -> tuple[float, float]:
@@ -132,10 +162,28 @@ def pinned_depth(z: Any, x: Any, y: Any, slopes: tuple[float, float], total: Any
     return z - (total(z * x) * slopes[0]) * x - (total(z * y) * slopes[1]) * y
 
 
+def tilted_grid(grid: np.ndarray, tilt: TiltEstimate) -> np.ndarray:
+    """``grid`` with depths on the plane of ``tilt`` through its centre."""
+    tilted = grid.copy()
+    tilted[..., 2] = tilt.slope_x * grid[..., 0] + tilt.slope_y * grid[..., 1]
+    return tilted
+
+
+def pinned_plane(grid: np.ndarray, pin_tilt: bool) -> np.ndarray:
+    """The best-fit plane of ``grid``'s depths where the tilt is pinned (zeros where it is free)."""
+    z = grid[..., 2].ravel()
+    if not pin_tilt:
+        return np.zeros_like(z)
+    return z - pinned_depth(z, grid[..., 0].ravel(), grid[..., 1].ravel(), tilt_slopes(grid, True), np.sum) - z.mean()
+
+
 def grid_from(mi: ModuleType, steps: Any, u: np.ndarray, base: np.ndarray, pin_tilt: bool = True) -> np.ndarray:
-    """(n, n, 3) grid of the differential coordinates ``u``: x, y of ``base``, depth pinned like the fit's."""
+    """(n, n, 3) grid of the differential coordinates ``u``: x, y of ``base``, depth pinned like the fit's.
+
+    The pinned plane is ``base``'s (the tilt the fit started from).
+    """
     v = np.array(steps.from_differential(mi.Float(u)), dtype=np.float64).reshape(base.shape)
     grid = base.copy()
-    grid[..., 2] = pinned_depth(v[..., 2].ravel(), base[..., 0].ravel(), base[..., 1].ravel(), tilt_slopes(base, pin_tilt),
-                                np.sum).reshape(base.shape[:2])
+    grid[..., 2] = (pinned_depth(v[..., 2].ravel(), base[..., 0].ravel(), base[..., 1].ravel(), tilt_slopes(base, pin_tilt),
+                                 np.sum) + pinned_plane(base, pin_tilt)).reshape(base.shape[:2])
     return grid

@@ -4,14 +4,24 @@ Real photos come with an unknown light. We model it as one point light at a
 fixed distance from the cloth centre and estimate its direction by matching
 the image's smooth brightness falloff (cosine and inverse-square terms over a
 flat Lambertian plane) on a polar x azimuth grid. The overall scale is left
-to the base colour (see :mod:`.model` for the exposure convention).
+to the base colour (see :mod:`.model` for the exposure convention). The
+geometry stage turns that estimate with the cloth's tilt (:func:`tilted`) and
+then refines its direction along with the folds and the BSDF
+(:func:`apply_light`), where the full BSDF and the fitted folds replace the
+grid search's flat Lambertian plane.
 """
 from __future__ import annotations
+
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 from scipy import ndimage
 
-from .model import FitCamera, PointLight
+from .model import WHITE_PATCH_READING, FitCamera, PointLight
+
+#: the light is kept at least this cosine above the cloth's horizon while it is fitted
+MIN_COSINE = 0.1
 
 
 def luminance(rgb: np.ndarray) -> np.ndarray:
@@ -63,3 +73,70 @@ def estimate_light(image: np.ndarray, weight: np.ndarray, camera: FitCamera, dis
             if residual < best_residual:
                 best, best_residual = light, residual
     return best, best_residual
+
+
+def tilted(light: PointLight, slope_x: float, slope_y: float) -> PointLight:
+    """``light`` turned with the cloth when the cloth tilts to depth slopes ``(slope_x, slope_y)``.
+
+    The light direction is estimated against a level plane; shading fixes only
+    the light's direction relative to the cloth, so a tilted cloth takes its
+    light along (the rotation that takes +z to the tilted normal).
+    """
+    normal = cloth_normal(slope_x, slope_y)
+    axis = np.cross([0.0, 0.0, 1.0], normal)
+    sine, cosine = float(np.linalg.norm(axis)), float(normal[2])
+    direction = np.array(light.position) / light.distance
+    if sine > 1e-12:
+        k = axis / sine  # Rodrigues' rotation about k by the tilt angle
+        direction = direction * cosine + np.cross(k, direction) * sine + k * (k @ direction) * (1 - cosine)
+    polar = float(np.degrees(np.arccos(np.clip(direction[2], -1.0, 1.0))))
+    azimuth = float(np.degrees(np.arctan2(direction[1], direction[0])) % 360.0)
+    incidence = light.polar_deg if light.incidence_deg is None else light.incidence_deg
+    return PointLight(polar, azimuth, light.distance, incidence)
+
+
+#: radians of light-direction change per unit of its latent (keeps Adam's first steps to a few degrees)
+LIGHT_STEP = 0.25
+
+
+def light_frame(light: PointLight) -> np.ndarray:
+    """Rows: the light's unit direction from the cloth centre and two unit tangents across it."""
+    direction = np.array(light.position) / light.distance
+    helper = np.array([0.0, 0.0, 1.0]) if abs(direction[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    first = np.cross(direction, helper)
+    first /= np.linalg.norm(first)
+    return np.stack([direction, first, np.cross(direction, first)])
+
+
+def turned_direction(frame: np.ndarray, latent: Any, normalise: Any) -> Any:
+    """Unit direction ``frame[0]`` turned across by the two-element ``latent`` (NumPy or Dr.Jit)."""
+    d = [float(frame[0, k]) + LIGHT_STEP * (latent[0] * float(frame[1, k]) + latent[1] * float(frame[2, k])) for k in range(3)]
+    return normalise(d)
+
+
+def cloth_normal(slope_x: float, slope_y: float) -> np.ndarray:
+    """Unit normal of the plane with depth slopes ``(slope_x, slope_y)``."""
+    normal = np.array([-slope_x, -slope_y, 1.0])
+    return normal / np.linalg.norm(normal)
+
+
+def apply_light(mi: ModuleType, params: Any, light: PointLight, latent: Any, normal: np.ndarray) -> None:
+    """Write the light turned by ``latent`` into the scene, its intensity following the exposure convention."""
+    import drjit as dr
+
+    def normalise(d: list[Any]) -> Any:
+        return dr.normalize(mi.Vector3f(*d))
+
+    latent = [dr.gather(mi.Float, latent, i) for i in range(2)]
+    direction = turned_direction(light_frame(light), latent, normalise)
+    cosine = dr.maximum(dr.dot(direction, mi.Vector3f(*(float(c) for c in normal))), MIN_COSINE)
+    params["light.position"] = mi.Point3f(direction * light.distance)
+    params["light.intensity.value"] = mi.Color3f(WHITE_PATCH_READING * np.pi * light.distance**2 / cosine)
+
+
+def light_from_latent(light: PointLight, latent: np.ndarray, normal: np.ndarray) -> PointLight:
+    """The :class:`PointLight` that :func:`apply_light` renders for ``latent``."""
+    direction = turned_direction(light_frame(light), np.asarray(latent, dtype=np.float64), lambda d: np.array(d) / np.linalg.norm(d))
+    incidence = float(np.degrees(np.arccos(max(float(direction @ normal), MIN_COSINE))))
+    polar = float(np.degrees(np.arccos(np.clip(direction[2], -1.0, 1.0))))
+    return PointLight(polar, float(np.degrees(np.arctan2(direction[1], direction[0])) % 360.0), light.distance, incidence)

@@ -47,11 +47,16 @@ class FitCamera:
 
 @dataclass(frozen=True)
 class PointLight:
-    """A point light given by its direction from the cloth centre and distance."""
+    """A point light given by its direction from the cloth centre and distance.
+
+    ``incidence_deg`` is its angle from the cloth's mean normal, which sets the
+    exposure convention; None means the cloth is level and it equals the polar angle.
+    """
 
     polar_deg: float
     azimuth_deg: float
     distance: float = 3.0
+    incidence_deg: float | None = None
 
     @property
     def position(self) -> tuple[float, float, float]:
@@ -65,7 +70,8 @@ class PointLight:
     @property
     def intensity(self) -> float:
         """Radiant intensity under the white-patch calibration convention."""
-        return float(WHITE_PATCH_READING * np.pi * self.distance**2 / np.cos(np.deg2rad(self.polar_deg)))
+        incidence = self.polar_deg if self.incidence_deg is None else self.incidence_deg
+        return float(WHITE_PATCH_READING * np.pi * self.distance**2 / np.cos(np.deg2rad(incidence)))
 
 
 @dataclass

@@ -144,7 +144,8 @@ def load_state(stage_dir: str | os.PathLike[str]) -> tuple[FitScene, dict[str, A
     scene = record["scene"]
     fit = FitScene(
         camera=FitCamera(scene["camera"]["fov_deg"], scene["camera"]["distance"]),
-        light=PointLight(scene["light"]["polar_deg"], scene["light"]["azimuth_deg"], scene["light"]["distance"]),
+        light=PointLight(scene["light"]["polar_deg"], scene["light"]["azimuth_deg"], scene["light"]["distance"],
+                         scene["light"].get("incidence_deg")),
         grid=np.load(stage_dir / GRID_FILE).astype(np.float64),
         margin=scene["margin"],
         material=Material(tuple(scene["material"]["base_color"]), scene["material"]["specular"], scene["material"]["roughness"]),
