@@ -81,7 +81,7 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
     update_fit(mi, fit, steps, loop.best, settings, normal)
     if settings.fit_light:
         log.info("light refined: polar %.1f deg, azimuth %.1f deg", fit.light.polar_deg, fit.light.azimuth_deg)
-    evidence = geometry_evidence(fit.grid, camera, light)
+    evidence = geometry_evidence(fit.grid, camera, fit.light)
     plans = [plan.as_record()]
     warnings = list(loop.warnings)
     curve = [row | {"phase": "vertices"} for row in loop.curve]

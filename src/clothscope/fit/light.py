@@ -76,7 +76,7 @@ def estimate_light(image: np.ndarray, weight: np.ndarray, camera: FitCamera, dis
 
 
 def tilted(light: PointLight, slope_x: float, slope_y: float) -> PointLight:
-    """``light`` turned with the cloth when the cloth tilts to depth slopes ``(slope_x, slope_y)``.
+    """``light`` turned with the cloth when the cloth tilts to the slopes ``(dz/dx, dz/dy) = (slope_x, slope_y)``.
 
     The light direction is estimated against a level plane; shading fixes only
     the light's direction relative to the cloth, so a tilted cloth takes its
@@ -115,7 +115,7 @@ def turned_direction(frame: np.ndarray, latent: Any, normalise: Any) -> Any:
 
 
 def cloth_normal(slope_x: float, slope_y: float) -> np.ndarray:
-    """Unit normal of the plane with depth slopes ``(slope_x, slope_y)``."""
+    """Unit normal (toward the camera) of the plane ``z = slope_x x + slope_y y``."""
     normal = np.array([-slope_x, -slope_y, 1.0])
     return normal / np.linalg.norm(normal)
 

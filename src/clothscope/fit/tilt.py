@@ -147,7 +147,7 @@ def estimate_tilt(image: np.ndarray, weight: np.ndarray, camera: FitCamera, prio
     ----------
     image : (H, W, 3) linear RGB working image (square).
     weight : (H, W) pixel weights (0 for clipped pixels).
-    camera : the fit camera (its field of view turns image slopes into depth slopes).
+    camera : the fit camera (its field of view turns slopes across the image into slopes of z).
     prior_deg : spread of the tilt prior per axis; 0 returns a level plane.
 
     Returns
