@@ -85,6 +85,9 @@ def test_tiny_fit_of_a_synthetic_photo_writes_every_output(tmp_path):
     assert state["effects"][0]["integrator"] == "direct_unshadowed"
     assert state["psnr_db"] > 15.0
     assert_all_finite(state, tmp_path / "fit" / "normals")
+    geometry = json.loads((tmp_path / "fit" / "geometry" / "state.json").read_text())
+    assert 0.0 <= geometry["tilt"]["degrees"] < 20.0 and len(geometry["tilt"]["periods_px"]) <= 2
+    assert geometry["scene"]["light"]["incidence_deg"] is not None  # exposure kept against the cloth's mean normal
 
 
 def test_normals_without_joint_pass_keep_the_material_stage_bsdf(tmp_path):

@@ -42,7 +42,7 @@ PARALLEL_SINE = 0.25
 
 @dataclass(frozen=True)
 class TiltEstimate:
-    """Depth slopes ``dz/dx`` and ``dz/dy`` of the cloth's best-fit plane (z toward the camera)."""
+    """Slopes ``dz/dx`` and ``dz/dy`` of the cloth's best-fit plane (z toward the camera), with standard errors."""
 
     slope_x: float = 0.0
     slope_y: float = 0.0
