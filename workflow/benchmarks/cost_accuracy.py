@@ -48,10 +48,11 @@ VARIANTS: dict[str, tuple[str, dict, bool]] = {
     "full-effects": ("default", {"fit": {"full_effects": True}}, False),
     # the default preset on the CUDA variant; only where a CUDA GPU is present (otherwise reported as not measured)
     "cuda": ("default", {"variant": "cuda_ad_rgb"}, True),
-    # opt-in (not in the default list): the whole sheet with LOOCV, projected at about 52 min per image on 2 CPU cores
+    # opt-in (not in the default list): the whole sheet with LOOCV, about an hour per image on 2 CPU cores
     "paper": ("paper", {}, True),
 }
 DEFAULT_VARIANTS = [name for name in VARIANTS if name != "paper"]
+PAPER_PROJECTION = ROOT / "results" / "reports" / "paper_projection.csv"
 ERRORS = ("psnr_db", "fold_normal_error_deg", "roughness_error", "period_error")
 
 
@@ -138,6 +139,15 @@ def report(table: pd.DataFrame, summary: pd.DataFrame, not_measured: dict[str, s
     return "\n".join(lines)
 
 
+def paper_not_run() -> str:
+    """Why ``paper`` is not in the table, with its projected time where paper_projection.py has measured it."""
+    projected = ""
+    if PAPER_PROJECTION.exists():
+        minutes = float(pd.read_csv(PAPER_PROJECTION)["projected_s"].sum()) / 60.0
+        projected = f", projected at about {minutes:.0f} min per image on 2 CPU cores"
+    return f"not run: opt-in (`--variants paper`){projected} (workflow/benchmarks/paper_projection.py)"
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--variants", default=",".join(DEFAULT_VARIANTS), help=f"any of {', '.join(VARIANTS)}")
@@ -151,8 +161,7 @@ def main() -> int:
     unknown = sorted(set(requested) - set(VARIANTS))
     if unknown:
         raise SystemExit(f"cost_accuracy: error: unknown variant(s) {', '.join(unknown)}; choose from {', '.join(VARIANTS)}")
-    not_measured = {"paper": "not run: opt-in (`--variants paper`), projected at about 52 min per image on 2 CPU cores "
-                             "(workflow/benchmarks/paper_projection.py)"} if "paper" not in requested else {}
+    not_measured = {"paper": paper_not_run()} if "paper" not in requested else {}
     if "cuda" in requested and not cuda_available():
         requested.remove("cuda")
         not_measured["cuda"] = "not measured: no CUDA GPU on this machine (Dr.Jit's CUDA backend did not initialise)"
