@@ -60,6 +60,14 @@ def test_clipped_pixels_do_not_move_the_estimate():
     assert estimate.slope_y == pytest.approx(0.05, abs=0.03)
 
 
+def test_almost_fully_clipped_photo_reads_level_without_error():
+    image = photo_of_tilted_weave(0.1, 0.05)
+    weight = np.zeros(image.shape[:2])
+    weight[128, :] = 1.0  # one unclipped row cannot show a plane
+    estimate = estimate_tilt(image, weight, CAMERA, prior_deg=5.0)
+    assert np.isfinite(estimate.slope_x) and np.isfinite(estimate.slope_y) and estimate.degrees < 1.5
+
+
 @pytest.mark.parametrize("case", ["noise", "flat", "black", "tiny"])
 def test_textures_without_a_lattice_read_as_about_level(case):
     rng = np.random.default_rng(3)

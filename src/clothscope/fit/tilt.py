@@ -132,11 +132,17 @@ def frequency_plane(ratio: np.ndarray, amplitude: np.ndarray, correlation_px: fl
     design = np.stack([np.ones_like(w), sx[inner, inner].ravel(), sy[inner, inner].ravel()], axis=1)
     r = ratio[inner, inner].ravel()
     total = float(w.sum())
+    if not total > 0:
+        return np.full(3, np.nan), np.full(2, np.inf)
     normal = design.T @ (design * w[:, None]) / total
-    coef = np.linalg.solve(normal, design.T @ (r * w) / total)
+    try:
+        coef = np.linalg.solve(normal, design.T @ (r * w) / total)
+        covariance = np.linalg.inv(normal)
+    except np.linalg.LinAlgError:  # the weighted pixels do not span a plane (e.g. one unclipped row)
+        return np.full(3, np.nan), np.full(2, np.inf)
     variance = float(np.sum(w * (r - design @ coef) ** 2)) / total
     samples = max(w.size / correlation_px**2, 4.0)
-    stderr = np.sqrt(np.diag(np.linalg.inv(normal))[1:] * variance / samples)
+    stderr = np.sqrt(np.diag(covariance)[1:] * variance / samples)
     return coef, stderr
 
 
