@@ -607,14 +607,13 @@ def thread_period(normal: np.ndarray, settings: SpectrumSettings) -> float | Non
     if array.ndim != 3 or array.shape[-1] != 3:
         raise ValueError(f"normal map must have shape (H, W, 3), got {array.shape}")
     n_x, n_y = (z_component(array[..., c]) for c in (0, 1))
+    if np.ptp(n_x) < FLAT_TOLERANCE and np.ptp(n_y) < FLAT_TOLERANCE:
+        return None
     size = n_x.shape[0]
     dy, dx, radius = radius_grid(size)
     spectra = [np.fft.fftshift(np.fft.fft2((c - c.mean()) * window_2d(size, settings.window))) for c in (n_x, n_y)]
-    safe = np.maximum(radius, 1e-9)
-    relief = np.abs(dx * spectra[0] - dy * spectra[1]) / safe**2  # image rows run along -y
+    relief = np.abs(dx * spectra[0] - dy * spectra[1]) / np.maximum(radius, 1e-9) ** 2  # image rows run along -y
     relief[radius < settings.dc_radius_bins(size)] = 0.0
-    if np.ptp(n_x) < FLAT_TOLERANCE and np.ptp(n_y) < FLAT_TOLERANCE:
-        return None
     searched = np.where(upper_half_plane(dy, dx), relief, 0.0)
     if not searched.max() > 0.0:
         return None

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial.transform import Rotation
 
 from .model import WHITE_PATCH_READING, FitCamera, PointLight
 
@@ -75,6 +76,13 @@ def estimate_light(image: np.ndarray, weight: np.ndarray, camera: FitCamera, dis
     return best, best_residual
 
 
+def light_along(direction: np.ndarray, distance: float, incidence_deg: float) -> PointLight:
+    """The :class:`PointLight` at ``distance`` along the unit ``direction``, with the given incidence."""
+    polar = float(np.degrees(np.arccos(np.clip(direction[2], -1.0, 1.0))))
+    azimuth = float(np.degrees(np.arctan2(direction[1], direction[0])) % 360.0)
+    return PointLight(polar, azimuth, distance, incidence_deg)
+
+
 def tilted(light: PointLight, slope_x: float, slope_y: float) -> PointLight:
     """``light`` turned with the cloth when the cloth tilts to the slopes ``(dz/dx, dz/dy) = (slope_x, slope_y)``.
 
@@ -82,17 +90,9 @@ def tilted(light: PointLight, slope_x: float, slope_y: float) -> PointLight:
     the light's direction relative to the cloth, so a tilted cloth takes its
     light along (the rotation that takes +z to the tilted normal).
     """
-    normal = cloth_normal(slope_x, slope_y)
-    axis = np.cross([0.0, 0.0, 1.0], normal)
-    sine, cosine = float(np.linalg.norm(axis)), float(normal[2])
-    direction = np.array(light.position) / light.distance
-    if sine > 1e-12:
-        k = axis / sine  # Rodrigues' rotation about k by the tilt angle
-        direction = direction * cosine + np.cross(k, direction) * sine + k * (k @ direction) * (1 - cosine)
-    polar = float(np.degrees(np.arccos(np.clip(direction[2], -1.0, 1.0))))
-    azimuth = float(np.degrees(np.arctan2(direction[1], direction[0])) % 360.0)
+    turn, _ = Rotation.align_vectors([cloth_normal(slope_x, slope_y)], [[0.0, 0.0, 1.0]])
     incidence = light.polar_deg if light.incidence_deg is None else light.incidence_deg
-    return PointLight(polar, azimuth, light.distance, incidence)
+    return light_along(turn.apply(np.array(light.position) / light.distance), light.distance, incidence)
 
 
 #: radians of light-direction change per unit of its latent (keeps Adam's first steps to a few degrees)
@@ -138,5 +138,4 @@ def light_from_latent(light: PointLight, latent: np.ndarray, normal: np.ndarray)
     """The :class:`PointLight` that :func:`apply_light` renders for ``latent``."""
     direction = turned_direction(light_frame(light), np.asarray(latent, dtype=np.float64), lambda d: np.array(d) / np.linalg.norm(d))
     incidence = float(np.degrees(np.arccos(max(float(direction @ normal), MIN_COSINE))))
-    polar = float(np.degrees(np.arccos(np.clip(direction[2], -1.0, 1.0))))
-    return PointLight(polar, float(np.degrees(np.arctan2(direction[1], direction[0])) % 360.0), light.distance, incidence)
+    return light_along(direction, light.distance, incidence)
