@@ -172,6 +172,21 @@ def test_loop_restarts_on_non_finite_loss_and_keeps_best(mi):
     assert result.best_loss < 18.0  # improved on the start (x = 0: loss 18)
 
 
+def test_keep_last_returns_the_final_iterate_not_a_lucky_noisy_loss(mi):
+    """A loss value carrying a term its gradient lacks (a render's variance) biases "best"; "last" follows the gradient."""
+    import drjit as dr
+
+    def loss_fn(opt, it):  # value (x - 3)^2 + 2x, gradient that of (x - 3)^2 only
+        return dr.sum((opt["x"] - 3.0) ** 2) + 2.0 * dr.detach(dr.sum(opt["x"]))
+
+    best = optimise(mi, {"x": np.zeros(1, np.float32)}, loss_fn, LoopSettings(150, 0.1), LOG, "best")
+    last = optimise(mi, {"x": np.zeros(1, np.float32)}, loss_fn, LoopSettings(150, 0.1, keep="last"), LOG, "last")
+    assert abs(float(best.best["x"][0]) - 2.0) < 0.2  # the value's minimum, not the gradient's
+    assert abs(float(last.best["x"][0]) - 3.0) < 0.1 and math.isfinite(last.best_loss)
+    with pytest.raises(ValueError, match="keep"):
+        LoopSettings(10, 0.1, keep="median")
+
+
 def test_plateau_rule_stops_early(mi):
     import drjit as dr
 

@@ -3,6 +3,16 @@
 It never lets a non-finite number through: a non-finite or climbing loss, or a
 non-finite parameter, restores the best parameters so far, halves the step and
 records a warning. A plateau rule stops early.
+
+Which variables it returns is a choice (``LoopSettings.keep``). ``"best"``, the
+lowest loss seen, suits short descents. But each loss is one noisy render, and
+its expectation is the squared error *plus the render's variance*; a sharp
+specular lobe has more variance at a few samples per pixel than a broad one,
+so picking the lowest noisy loss favours rough lobes (on a photo rendered by the
+fit model itself, "best" returned roughness 0.43 for a true 0.22 while the
+iterates went on down to 0.36). ``"last"`` returns the final iterate: Adam's
+steps use gradients from decorrelated samples (``seed_grad``), which carry no
+such bias.
 """
 from __future__ import annotations
 
@@ -28,8 +38,11 @@ class LoopSettings:
     min_improvement: float = 1e-3  # relative loss drop that counts as progress
     max_restarts: int = 4
     climb_factor: float = 3.0  # loss above this times the best counts as a blow-up
+    keep: str = "best"  # "best": lowest noisy loss; "last": the final iterate (see the module docstring)
 
     def __post_init__(self) -> None:
+        if self.keep not in ("best", "last"):
+            raise ValueError(f"keep must be 'best' or 'last', got {self.keep!r}")
         if self.iterations < 0:
             raise ValueError(f"iterations must be >= 0, got {self.iterations}")
         if not self.learning_rate > 0:
@@ -38,7 +51,7 @@ class LoopSettings:
 
 @dataclass
 class LoopResult:
-    """Best variables, the loss curve and any warnings."""
+    """The variables returned (``best``: lowest loss, or the last iterate), the loss curve and any warnings."""
 
     best: Variables
     best_loss: float
@@ -103,6 +116,10 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
                 result.warnings.append(f"{name}: iteration {it}: non-finite {key} after the step; reset to best")
                 log.warning(result.warnings[-1])
     result.seconds = time.perf_counter() - started
+    if settings.keep == "last" and result.curve and not result.stopped.startswith("gave up"):
+        last = {k: np.array(opt[k], dtype=np.float32) for k in initial}
+        if _finite(last):
+            result.best, result.best_loss = last, result.curve[-1]["loss"]
     if not math.isfinite(result.best_loss):
         result.warnings.append(f"{name}: no finite loss was ever reached; keeping the initial values")
         result.best = {k: v.copy() for k, v in initial.items()}

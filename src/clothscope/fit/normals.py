@@ -5,7 +5,9 @@ The optimised variable is a height map ``h`` (in texel widths). Normals are
 never be zero, in the surface plane or flipped. Phase 1 fits the height map
 alone with a plateau stopping rule (the map drifts into noise if left
 running); phase 2 refines height map and BSDF jointly, which is what makes
-roughness recoverable (it cannot be fitted while the normal map is flat).
+roughness recoverable (it cannot be fitted while the normal map is flat). The
+joint phase has no plateau rule and returns its last iterate (see
+:mod:`.loop` for why the lowest noisy loss would bias roughness upward).
 """
 from __future__ import annotations
 
@@ -34,7 +36,7 @@ class NormalSettings:
     learning_rate: float = 0.05
     patience: int = 10
     min_improvement: float = 0.002
-    joint_iterations: int = 60
+    joint_iterations: int = 200
     joint_learning_rate: float = 0.02
     min_roughness: float = 0.05
 
@@ -89,8 +91,10 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     joint_start = first.best | fixed
     if settings.joint_iterations == 0:  # BSDF kept from the material stage
         return first.best["height"].reshape(size, size).astype(np.float64), fit.material, [first]
+    # the joint phase runs all its iterations and keeps the last iterate: its noisy loss flattens long before the
+    # roughness stops drifting, and the lowest noisy loss would favour rough lobes (see clothscope.fit.loop)
     second = optimise(mi, joint_start, loss_fn, LoopSettings(settings.joint_iterations, settings.joint_learning_rate,
-                                                             settings.patience, settings.min_improvement), log, "normals+bsdf")
+                                                             keep="last"), log, "normals+bsdf")
     best = second.best if second.best_loss <= first.best_loss else joint_start
     material = material_from_latents({k: best[k] for k in fixed}, settings.min_roughness)
     return best["height"].reshape(size, size).astype(np.float64), material, [first, second]
