@@ -371,12 +371,16 @@ def window_2d(size: int, kind: str) -> np.ndarray:
     raise ValueError(f"unknown window {kind!r}; expected one of {', '.join(WINDOWS)}")
 
 
+def centred_spectrum(z: np.ndarray, window: str) -> np.ndarray:
+    """Complex FFT of the mean-free, windowed map ``z``, shifted so DC is at ``(N // 2, N // 2)``."""
+    return np.fft.fftshift(np.fft.fft2((z - z.mean()) * window_2d(z.shape[0], window)))
+
+
 def magnitude_spectrum(z: np.ndarray, window: str) -> np.ndarray:
-    """Centred FFT magnitude of the mean-free, windowed z map (DC at ``(N // 2, N // 2)``)."""
-    centred = z - z.mean()
+    """Centred FFT magnitude of the mean-free, windowed z map (zeros for a flat map)."""
     if np.ptp(z) < FLAT_TOLERANCE:
-        centred = np.zeros_like(z)
-    return np.abs(np.fft.fftshift(np.fft.fft2(centred * window_2d(z.shape[0], window))))
+        return np.zeros_like(z, dtype=np.float64)
+    return np.abs(centred_spectrum(z, window))
 
 
 def radius_grid(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -611,7 +615,7 @@ def thread_period(normal: np.ndarray, settings: SpectrumSettings) -> float | Non
         return None
     size = n_x.shape[0]
     dy, dx, radius = radius_grid(size)
-    spectra = [np.fft.fftshift(np.fft.fft2((c - c.mean()) * window_2d(size, settings.window))) for c in (n_x, n_y)]
+    spectra = [centred_spectrum(c, settings.window) for c in (n_x, n_y)]
     relief = np.abs(dx * spectra[0] - dy * spectra[1]) / np.maximum(radius, 1e-9) ** 2  # image rows run along -y
     relief[radius < settings.dc_radius_bins(size)] = 0.0
     searched = np.where(upper_half_plane(dy, dx), relief, 0.0)

@@ -19,7 +19,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
-from .model import WHITE_PATCH_READING, FitCamera, PointLight
+from .model import FitCamera, PointLight, calibrated_intensity
 
 #: the light is kept at least this cosine above the cloth's horizon while it is fitted
 MIN_COSINE = 0.1
@@ -131,7 +131,7 @@ def apply_light(mi: ModuleType, params: Any, light: PointLight, latent: Any, nor
     direction = turned_direction(light_frame(light), latent, normalise)
     cosine = dr.maximum(dr.dot(direction, mi.Vector3f(*(float(c) for c in normal))), MIN_COSINE)
     params["light.position"] = mi.Point3f(direction * light.distance)
-    params["light.intensity.value"] = mi.Color3f(WHITE_PATCH_READING * np.pi * light.distance**2 / cosine)
+    params["light.intensity.value"] = mi.Color3f(calibrated_intensity(light.distance, cosine))
 
 
 def light_from_latent(light: PointLight, latent: np.ndarray, normal: np.ndarray) -> PointLight:

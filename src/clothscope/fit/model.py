@@ -45,6 +45,14 @@ class FitCamera:
         return 2.0 * self.distance * np.tan(np.deg2rad(self.fov_deg) / 2.0)
 
 
+def calibrated_intensity(distance: float, cosine: Any) -> Any:
+    """Radiant intensity at which a white Lambertian patch at the cloth centre reads ``WHITE_PATCH_READING``.
+
+    ``cosine`` is the light's incidence cosine there (a float, a NumPy or a Dr.Jit array).
+    """
+    return WHITE_PATCH_READING * np.pi * distance**2 / cosine
+
+
 @dataclass(frozen=True)
 class PointLight:
     """A point light given by its direction from the cloth centre and distance.
@@ -71,7 +79,7 @@ class PointLight:
     def intensity(self) -> float:
         """Radiant intensity under the white-patch calibration convention."""
         incidence = self.polar_deg if self.incidence_deg is None else self.incidence_deg
-        return float(WHITE_PATCH_READING * np.pi * self.distance**2 / np.cos(np.deg2rad(incidence)))
+        return float(calibrated_intensity(self.distance, np.cos(np.deg2rad(incidence))))
 
 
 @dataclass

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from ..spectrum import window_2d
 from .light import luminance
 from .model import FitCamera
 
@@ -164,8 +165,7 @@ def estimate_tilt(image: np.ndarray, weight: np.ndarray, camera: FitCamera, prio
     if prior_deg <= 0 or image.shape[0] < 32 or image.shape[0] != image.shape[1]:
         return TiltEstimate()
     texture = contrast_texture(image, weight)
-    window = np.outer(np.hanning(texture.shape[0]), np.hanning(texture.shape[0]))
-    spectrum = np.abs(np.fft.fft2(texture * window))
+    spectrum = np.abs(np.fft.fft2(texture * window_2d(texture.shape[0], "hann")))
     half_width = np.tan(np.deg2rad(camera.fov_deg) / 2.0)
     normal, right, periods = np.zeros((2, 2)), np.zeros(2), []
     for peak in lattice_peaks(spectrum):
