@@ -157,6 +157,33 @@ def test_gradients_match_finite_differences(mi):
         params[BSDF_KEYS[key]] = mi.Float(x0)
 
 
+def test_loss_image_and_gradient_pass_take_their_own_sample_counts(mi):
+    """``render``: the image has ``spp`` samples per pixel, the gradient pass ``spp_grad`` (same expectation)."""
+    import drjit as dr
+
+    from clothscope.fit.stage import render
+
+    camera = FitCamera()
+    fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
+    scene = build_scene(mi, fit, 16, {"type": "direct"})
+    params = mi.traverse(scene)
+    reference = np.array(mi.render(scene, spp=8, seed=5))
+
+    def image_and_gradient(spp_grad: int) -> tuple[np.ndarray, float]:
+        x = mi.Float(0.4)
+        dr.enable_grad(x)
+        params[BSDF_KEYS["roughness"]] = x
+        params.update()
+        image = render(mi, scene, params, 8, 5, spp_grad)
+        dr.backward(dr.mean(image.array))
+        return np.array(image), float(dr.grad(x)[0])
+
+    (image_2, grad_2), (image_64, grad_64) = image_and_gradient(2), image_and_gradient(64)
+    assert np.array_equal(image_2, reference) and np.array_equal(image_64, reference)
+    assert math.isfinite(grad_2) and grad_2 != grad_64  # a separate pass with its own sample count
+    assert abs(grad_2 - grad_64) <= 0.2 * abs(grad_64)
+
+
 def test_loop_restarts_on_non_finite_loss_and_keeps_best(mi):
     """A loss that turns NaN makes the loop restore the best values, halve the step and warn."""
     import drjit as dr

@@ -40,8 +40,10 @@ VARIANTS: dict[str, tuple[str, dict, bool]] = {
     "default": ("default", {}, True),
     "normals-iters-20": ("default", {"fit": {"normals": {"iterations": 20, "joint_iterations": 15}}}, False),
     "normals-iters-40": ("default", {"fit": {"normals": {"iterations": 40, "joint_iterations": 30}}}, False),
-    "spp-1": ("default", {"fit": {"geometry": {"spp": 4}, "material": {"spp": 1}, "normals": {"spp": 1}}}, False),
-    "spp-16": ("default", {"fit": {"geometry": {"spp": 64}, "material": {"spp": 16}, "normals": {"spp": 16}}}, False),
+    "spp-1": ("default", {"fit": {"geometry": {"spp": 4}, "material": {"spp": 1}, "normals": {"spp": 1, "spp_grad": 1}}}, False),
+    "spp-16": ("default", {"fit": {"geometry": {"spp": 64}, "material": {"spp": 16}, "normals": {"spp": 16, "spp_grad": 16}}}, False),
+    # the normal-map stage at 4 spp in both passes (the default before the loss image took 16 and the gradient 2)
+    "normals-spp-4": ("default", {"fit": {"normals": {"spp": 4, "spp_grad": 4}}}, False),
     "geometry-iters-50": ("default", {"fit": {"geometry": {"iterations": 50}}}, False),
     "geometry-res-128": ("default", {"fit": {"geometry": {"resolution": 128}}}, False),
     # effects ablation in the same report: the default preset with every stage forced to full effects

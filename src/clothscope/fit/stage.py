@@ -81,9 +81,13 @@ def image_loss(mi: ModuleType, rendered: Any, target: Target) -> Any:
     return dr.sum((rendered - t) ** 2 * w, axis=None)
 
 
-def render(mi: ModuleType, scene: Any, params: Any, spp: int, seed: int) -> Any:
-    """Render with a fresh seed per iteration (the primal and gradient noise decorrelate)."""
-    return mi.render(scene, params, spp=spp, seed=seed, seed_grad=seed + 100_003)
+def render(mi: ModuleType, scene: Any, params: Any, spp: int, seed: int, spp_grad: int = 0) -> Any:
+    """Render with a fresh seed per iteration (the primal and gradient noise decorrelate).
+
+    ``spp`` samples per pixel go into the image the loss compares with the photo,
+    ``spp_grad`` into the gradient pass (0: the same as ``spp``).
+    """
+    return mi.render(scene, params, spp=spp, spp_grad=spp_grad, seed=seed, seed_grad=seed + 100_003)
 
 
 def psnr(rendered: np.ndarray, target: Target) -> float:
