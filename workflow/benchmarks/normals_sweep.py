@@ -41,11 +41,11 @@ VARIANTS: dict[str, dict] = {
 
 
 def normal_settings(overrides: dict) -> dict:
-    """The config's ``fit.normals`` (schema defaults filled in) with ``overrides`` applied."""
-    from clothscope.schema import load_schema, validate
+    """The workflow's ``fit.normals`` (preset merged, schema defaults filled in, as ``common.smk`` does) with ``overrides``."""
+    from clothscope.schema import apply_preset, load_schema, validate
 
-    schema = load_schema(ROOT / "workflow" / "schemas" / "config.schema.yaml")
-    config = validate(yaml.safe_load((ROOT / "config" / "config.yaml").read_text()), schema, "config")
+    config = apply_preset(yaml.safe_load((ROOT / "config" / "config.yaml").read_text()), ROOT / "config" / "presets")
+    config = validate(config, load_schema(ROOT / "workflow" / "schemas" / "config.schema.yaml"), "config")
     return config["fit"]["normals"] | overrides
 
 
@@ -76,8 +76,7 @@ def summary(table: pd.DataFrame) -> str:
     rows = table.groupby("variant", sort=False).agg(
         roughness_error=("roughness_error", "median"), within_005=("roughness_error", lambda e: int((e <= 0.05).sum())),
         images=("image_id", "count"), normals_s=("normals_s", "median"))
-    settings = {name: json.dumps(VARIANTS[name]) for name in rows.index}
-    rows.insert(0, "overrides of fit.normals", [settings[name] for name in rows.index])
+    rows.insert(0, "overrides of fit.normals", [json.dumps(VARIANTS[name]) for name in rows.index])
     return ("# Normal-map stage knobs: roughness error on the synthetic set\n\n"
             "Only `fit_normals` reruns, from the main run's material stage; 1 thread per image, 2 images side by side. "
             "Medians over the images; `within_005`: images whose roughness error is at most 0.05.\n\n"
