@@ -5,7 +5,8 @@
 #   prepare     decode each photo into a linear working image, or reject it
 #   fit         inverse rendering: fit_geometry -> fit_material -> fit_normals
 #   features    Fourier features of each normal map (fitted or truth) -> feature_table
-#   classify    QDA: LOOCV reports, model, query predictions, physics JSON;
+#   classify    QDA: LOOCV reports, model, query predictions, physics JSON; feature sets
+#               side by side (fitted maps against the photo alone);
 #               paper_tables (the paper's 3 experiments) and sweep (settings grid)
 #   reports     list every rejected image
 from snakemake.utils import min_version
@@ -30,7 +31,9 @@ rule all:
         prepared_images(),
         rejection_report(),
         classify_outputs(config["features"]["normal_source"]),
+        feature_set_outputs(),
         physics_outputs(config["features"]["normal_source"]),
         paper_table_outputs(config["features"]["normal_source"]),
         fit_accuracy_report() if config["features"]["normal_source"] == "fitted" else [],
+        diagnosis_outputs(),
     default_target: True

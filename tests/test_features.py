@@ -18,10 +18,18 @@ from clothscope.features import (EXTRA_COLUMNS, concat_rows, config_hash, featur
 from clothscope.imageio import read_png, write_exr
 from clothscope.schema import load_schema, validate
 from clothscope.spectrum import SpectrumSettings, analyse_normal_map
+from clothscope.structure import LBP_COLUMNS, STRUCTURE_COLUMNS, StructureSettings
 from clothscope.synth.generate import decode_normal, truth_paths
 from clothscope.tables import PAPER_EXPERIMENTS, truncated_features
 
 SETTINGS = SpectrumSettings()
+FEATURE_DEFAULTS = validate({}, load_schema(SCHEMAS / "config.schema.yaml"), "config")["features"]
+STRUCTURE = StructureSettings(**FEATURE_DEFAULTS["structure"])
+
+
+def relief(normals):
+    """A scalar field standing in for the relief behind a normal map (its x slope)."""
+    return np.asarray(normals, dtype=np.float64)[..., 0]
 
 
 def flat_map(size=64):
@@ -45,7 +53,7 @@ def truth_normals(image_id="canvas_red"):
 @pytest.mark.parametrize("normals", [flat_map(), noisy_map()], ids=["flat", "noisy"])
 @pytest.mark.parametrize("extras", [False, True])
 def test_feature_row_is_finite_and_matches_schema(normals, extras):
-    row = feature_row("a", "canvas", normals, 0.5, 0.4, SETTINGS, extras)
+    row = feature_row("a", "canvas", normals, relief(normals), 0.5, 0.4, SETTINGS, STRUCTURE, extras)
     schema = feature_schema(SETTINGS.n_peaks, extras)
     assert list(row) == schema.names
     numbers = [v for v in row.values() if isinstance(v, (int, float))]
@@ -57,14 +65,17 @@ def test_feature_row_is_finite_and_matches_schema(normals, extras):
 
 
 def test_feature_row_of_a_woven_map_has_peaks():
-    row = feature_row("canvas_red", "canvas", truth_normals(), 0.7, 0.3, SETTINGS, False)
+    truth = load_truth(SYNTHETIC / "canvas" / "canvas_red.png")
+    row = feature_row("canvas_red", "canvas", truth.normals, truth.field, 0.7, 0.3, SETTINGS, STRUCTURE, False)
     assert row["n_peaks"] >= 1 and row["z_1"] == pytest.approx(1.0) and 0 < row["r_1"] <= 1.0
+    assert row["s_peak_fraction"] > 0.3 and row["s_prominence"] > 1.0
+    assert sum(row[f"lbp_8_1_{k}"] for k in range(10)) == pytest.approx(1.0)
 
 
 def test_unusable_row_is_zero_filled_with_reason():
     row = unusable_row("b", "", SETTINGS, True, "skipped", "prepare: image rejected\n(too small)")
     assert row["status"] == "skipped" and row["reason"] == "prepare: image rejected (too small)"
-    assert all(row[c] == 0 for c in paper_feature_columns(2) + list(EXTRA_COLUMNS))
+    assert all(row[c] == 0 for c in paper_feature_columns(2) + list(EXTRA_COLUMNS) + list(STRUCTURE_COLUMNS) + list(LBP_COLUMNS))
     with pytest.raises(ValueError):
         unusable_row("b", "", SETTINGS, False, "ok", "")
 
@@ -72,7 +83,7 @@ def test_unusable_row_is_zero_filled_with_reason():
 def test_table_parquet_round_trip(tmp_path):
     schema = feature_schema(3, True)
     settings = SpectrumSettings(n_peaks=3)
-    rows = [feature_row("a", "canvas", noisy_map(), 0.5, 0.4, settings, True, config_hash="abc"),
+    rows = [feature_row("a", "canvas", noisy_map(), relief(noisy_map()), 0.5, 0.4, settings, STRUCTURE, True, config_hash="abc"),
             unusable_row("q", None, settings, True, "missing", "no ground truth")]
     paths = []
     for row in rows:
@@ -86,7 +97,8 @@ def test_table_parquet_round_trip(tmp_path):
     assert list(frame["status"]) == ["ok", "missing"] and frame.loc[1, "fabric_class"] == ""
     assert np.isfinite(frame.select_dtypes("number").to_numpy()).all()
     other = tmp_path / "other.parquet"
-    write_rows([feature_row("c", "satin", flat_map(), 0.2, 0.7, SpectrumSettings(n_peaks=2), False)], feature_schema(2, False), other)
+    write_rows([feature_row("c", "satin", flat_map(), relief(flat_map()), 0.2, 0.7, SpectrumSettings(n_peaks=2), STRUCTURE, False)],
+               feature_schema(2, False), other)
     with pytest.raises(ValueError, match="schema differs"):
         concat_rows([paths[0], other])
 
@@ -103,16 +115,19 @@ def test_truth_and_fitted_loaders(tmp_path):
     assert truth.status == "ok" and truth.normals.shape == (256, 256, 3) and 0.1 < truth.roughness < 0.4
     missing = load_truth(tmp_path / "nothing.png")
     assert missing.status == "missing" and "truth-normal.png" in missing.reason and missing.normals is None
+    assert truth.field.shape == (256, 256) and np.ptp(truth.field) > 0
     # a fitted folder: raw float EXR with negative components must come back unchanged
     folder = tmp_path / "normals"
     folder.mkdir()
     normals = noisy_map(32)
     write_exr(folder / "normal.exr", normals)
+    write_exr(folder / "height.exr", np.repeat(relief(normals)[..., None], 3, axis=2).astype(np.float32))
     (folder / "state.json").write_text(json.dumps({"status": "fitted", "material": {"base_color": [0.5, 0.5, 0.5], "specular": 0.4,
                                                   "roughness": 0.6}, "texels_per_pixel": 0.94, "runtime": {"mitsuba_variant": "llvm_ad_rgb"}}))
     fitted = load_fitted(folder)
     assert fitted.status == "ok" and fitted.mitsuba_variant == "llvm_ad_rgb" and fitted.texels_per_pixel == 0.94
     assert np.array_equal(fitted.normals, normals) and fitted.normals.min() < 0
+    assert np.allclose(fitted.field, relief(normals))
     (folder / "state.json").write_text(json.dumps({"status": "skipped", "reason": "prepare: rejected"}))
     skipped = load_fitted(folder)
     assert skipped.status == "skipped" and skipped.reason == "prepare: rejected"
@@ -121,7 +136,7 @@ def test_truth_and_fitted_loaders(tmp_path):
 def test_features_job_writes_row_and_plot_for_missing_truth(tmp_path):
     image = tmp_path / "q.png"
     shutil.copy(SYNTHETIC / "canvas" / "canvas_red.png", image)
-    row = features_job("q", "", "truth", str(image), None, {"n_peaks": 2}, str(tmp_path / "q.parquet"), str(tmp_path / "q.png.out.png"))
+    row = features_job("q", "", "truth", str(image), None, FEATURE_DEFAULTS, str(tmp_path / "q.parquet"), str(tmp_path / "q.png.out.png"))
     assert row["status"] == "missing" and (tmp_path / "q.png.out.png").stat().st_size > 0
     assert pq.read_table(tmp_path / "q.parquet").num_rows == 1
 
@@ -144,10 +159,12 @@ def test_features_and_classify_config_keys_are_commented_with_defaults():
     defaults = validate({}, schema, "config")
     assert config["features"] == defaults["features"] and config["classify"] == defaults["classify"]
     assert defaults["features"]["normal_source"] == "fitted" and defaults["features"]["extras"] is False
-    assert SpectrumSettings(**{k: v for k, v in defaults["features"].items() if k not in ("normal_source", "extras")}) == SETTINGS
+    assert SpectrumSettings(**{k: v for k, v in defaults["features"].items()
+                               if k not in ("normal_source", "extras", "structure")}) == SETTINGS
     text = (ROOT / "config/config.yaml").read_text().splitlines()
     keys = [*schema["properties"]["features"]["properties"], *schema["properties"]["classify"]["properties"],
-            *schema["properties"]["classify"]["properties"]["sweep"]["properties"]]
+            *schema["properties"]["classify"]["properties"]["sweep"]["properties"],
+            *schema["properties"]["features"]["properties"]["structure"]["properties"]]
     for key in keys:
         line = next(line for line in text if line.strip().startswith(f"{key}:"))
         assert "#" in line, f"config key {key} has no comment"
@@ -197,7 +214,8 @@ def test_truth_mode_end_to_end_and_incremental(fresh_clone, tmp_path):
     dry = run_snakemake(fresh_clone, "-n", "--cores", "2", "classify_reports", "paper_reports", *config)
     assert dry.returncode == 0, dry.stderr[-3000:]
     counts = job_counts(dry.stdout)
-    assert counts["features"] == 1 and counts["feature_table"] == 1 and counts["classify"] == 1
+    # its truth row, and its photo row for the feature-set comparison the classifier's summary quotes
+    assert counts["features"] == 2 and counts["feature_table"] == 2 and counts["classify"] == 1
     assert re.search(r"output: \S*new_photo\.parquet", dry.stdout)
 
 
@@ -205,7 +223,8 @@ def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path)
     from clothscope.classify_job import classify_job
 
     settings = SpectrumSettings()
-    rows = [feature_row(f"q{i}", "", noisy_map(seed=i), 0.5, 0.4, settings, False) for i in range(3)]
+    rows = [feature_row(f"q{i}", "", noisy_map(seed=i), relief(noisy_map(seed=i)), 0.5, 0.4, settings, STRUCTURE, False)
+            for i in range(3)]
     rows.append(unusable_row("bad", "canvas", settings, False, "failed", "fit_normals: diverged"))
     write_rows(rows, feature_schema(2, False), tmp_path / "table.parquet")
     physics = {r["image_id"]: str(tmp_path / "physics" / f"{r['image_id']}.json") for r in rows}

@@ -167,3 +167,62 @@ def test_change_rate_counts_changed_predictions():
     report = prediction_change_rate(X, swapped, y)
     assert report.change_rate == pytest.approx(2 / 16) and list(np.flatnonzero(report.changed)) == [0, 1]
     assert report.accuracy_transformed == pytest.approx(14 / 16)
+
+
+# --------------------------------------------------------------------------- photos, refitted at test size
+
+
+def test_photo_transforms_rotate_crop_zoom_and_recolour():
+    from clothscope.invariance import rotate_photo, shift_hue, zoom_photo
+
+    rgb = np.random.default_rng(0).uniform(0.1, 0.9, (64, 64, 3))
+    assert rotate_photo(rgb, 30.0).shape == (rotated_crop_size(64, 30.0),) * 2 + (3,)
+    assert zoom_photo(rgb, 1.5).shape == (43, 43, 3)
+    recoloured = shift_hue(rgb, 120.0)
+    assert np.allclose(recoloured.max(axis=-1), rgb.max(axis=-1)) and not np.allclose(recoloured, rgb)
+    assert np.allclose(shift_hue(rgb, 360.0), rgb)
+    with pytest.raises(ValueError):
+        zoom_photo(rgb, 0.5)
+
+
+@pytest.mark.slow
+def test_refitted_thread_structure_survives_recolouring_rotation_and_zoom(tmp_path):
+    """One photo and its recoloured, rotated and zoomed versions, each prepared and refitted at 128 px."""
+    import logging
+
+    from clothscope.features import load_fitted
+    from clothscope.fit import jobs
+    from clothscope.fit.geometry import GeometrySettings
+    from clothscope.fit.material import MaterialSettings
+    from clothscope.fit.normals import NormalSettings
+    from clothscope.imageio import decode_image, linear_to_srgb, write_png
+    from clothscope.invariance import PHOTO_TRANSFORMS
+    from clothscope.prepare import PrepareSettings, prepare_image
+    from clothscope.structure import StructureSettings, structure_features
+
+    settings = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3)
+    common = dict(variant="llvm_ad_rgb", threads=2, full_effects=False, log=logging.getLogger("test_invariance"))
+
+    def refit(photo, out):
+        prepare_image("case", photo, out / "prepared", PrepareSettings(working_resolution=128))
+        jobs.geometry_job(str(out / "prepared"), str(out / "geometry"), GeometrySettings(resolution=32, spp=4, iterations=20), **common)
+        jobs.material_job(str(out / "prepared"), str(out / "geometry"), str(out / "material"),
+                          MaterialSettings(resolution=64, spp=2, iterations=10), **common)
+        jobs.normals_job(str(out / "prepared"), str(out / "material"), str(out / "normals"),
+                         NormalSettings(resolution=128, spp=4, spp_grad=2, texture=128, iterations=30, joint_iterations=20), **common)
+        return structure_features(load_fitted(out / "normals").field, settings)
+
+    photo = SYNTHETIC / "canvas" / "canvas_red.png"
+    base, base_diag = refit(photo, tmp_path / "original")
+    assert base_diag["lattice"]
+    srgb = linear_to_srgb(decode_image(photo).rgb)
+    expected_scale = {"hue120": 1.0, "rotate30": 256 / rotated_crop_size(256, 30.0), "zoom1.5": 256 / 171}
+    for name, scale in expected_scale.items():
+        write_png(tmp_path / f"{name}.png", PHOTO_TRANSFORMS[name](srgb))
+        features, diag = refit(tmp_path / f"{name}.png", tmp_path / name)
+        assert diag["lattice"], name
+        assert diag["period_px"] == pytest.approx(base_diag["period_px"] * scale, rel=0.08), name
+        assert all(np.isfinite(v) for v in features.values())
+    recoloured, _ = structure_features(load_fitted(tmp_path / "hue120" / "normals").field, settings)
+    profile = [k for k in recoloured if k.startswith("s_prof")]
+    assert np.abs([recoloured[k] - base[k] for k in profile]).max() < 0.1

@@ -136,6 +136,7 @@ class LoocvResult:
     per_class: pd.DataFrame
     excluded: dict[str, list[str]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    selected: dict[str, int] = field(default_factory=dict)
 
 
 @dataclass
@@ -348,7 +349,46 @@ def _labelled_data(table: pd.DataFrame, feature_columns: list[str], min_per_clas
     return labelled, excluded, notes, used, dropped, X, y
 
 
-def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto") -> LoocvResult:
+#: Folds of the inner cross-validation that chooses among candidate feature sets.
+INNER_FOLDS = 5
+
+
+def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto") -> float:
+    """Accuracy of :func:`make_qda` by stratified k-fold (k = :data:`INNER_FOLDS` or the smallest class) over labelled rows."""
+    from sklearn.model_selection import StratifiedKFold
+
+    labelled, _, notes, _, _, X, y = _labelled_data(table, columns, MIN_LOOCV_PER_CLASS, "choosing a feature set")
+    folds = StratifiedKFold(n_splits=min(INNER_FOLDS, int(pd.Series(y).value_counts().min())), shuffle=True, random_state=0)
+    correct = 0
+    for train, test in folds.split(X, y):
+        model = _fit(reg, X[train], y[train], notes)
+        correct += int((model.predict(X[test]) == y[test]).sum())
+    return correct / len(y)
+
+
+def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str = "auto") -> tuple[str, dict[str, float]]:
+    """The candidate column set with the highest :func:`inner_accuracy` on ``table`` (ties: the first listed), and every score.
+
+    Raises
+    ------
+    ValueError
+        When no candidate can be scored.
+    """
+    scores: dict[str, float] = {}
+    problems = []
+    for name, columns in candidates.items():
+        try:
+            scores[name] = inner_accuracy(table, columns, reg)
+        except ValueError as err:
+            problems.append(f"{name}: {str(err).splitlines()[0]}")
+    if not scores:
+        raise ValueError(f"no candidate feature set could be scored ({'; '.join(problems)})")
+    order = list(candidates)
+    return max(scores, key=lambda name: (scores[name], -order.index(name))), scores
+
+
+def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
+          select_from: dict[str, list[str]] | None = None) -> LoocvResult:
     """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
 
     Each labelled image is classified by a model fitted (scaler included) on
@@ -362,9 +402,14 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
     table
         The feature table.
     feature_columns
-        Names of the numeric feature columns to use.
+        Names of the numeric feature columns to use (ignored with ``select_from``).
     reg
         Shrinkage: ``"auto"`` or a float in [0, 1].
+    select_from
+        Candidate column sets by name: each fold then uses the set that
+        :func:`choose_columns` picks by an inner cross-validation of its
+        *training* images only, so the held-out image never takes part in
+        the choice (``selected`` counts the picks).
 
     Returns
     -------
@@ -377,6 +422,8 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         than two classes with enough images.
     """
     reg = _check_reg(reg)
+    if select_from:
+        feature_columns = list(dict.fromkeys(c for columns in select_from.values() for c in columns))
     labelled, excluded, notes, used, dropped, X, y = _labelled_data(table, feature_columns, MIN_LOOCV_PER_CLASS,
                                                                      "leave-one-out cross-validation")
     ids = labelled["image_id"].astype(str).tolist()
@@ -384,8 +431,18 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
     n = len(y)
 
     proba = np.zeros((n, len(classes)))
+    selected: dict[str, int] = {}
     for i in range(n):
         train = np.arange(n) != i
+        if select_from:
+            rows = labelled.iloc[np.flatnonzero(train)]
+            name, _ = choose_columns(rows, select_from, reg)
+            selected[name] = selected.get(name, 0) + 1
+            model = train_model(rows, select_from[name], reg)
+            if model.classes != classes:
+                raise ValueError(f"fold {ids[i]}: fitted classes {model.classes} differ from {classes}")
+            proba[i] = predict(model, labelled.iloc[[i]])[[posterior_column(c) for c in classes]].to_numpy(float)[0]
+            continue
         model = _fit(reg, X[train], y[train], notes)
         if list(model.classes_) != classes:
             raise ValueError(f"fold {ids[i]}: fitted classes {list(model.classes_)} differ from {classes}")
@@ -421,6 +478,7 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         per_class=per_class,
         excluded=excluded,
         notes=notes,
+        selected=selected,
     )
 
 
@@ -698,6 +756,7 @@ def write_reports(
         "reg": result.reg,
         "method": "leave-one-out cross-validation of QDA (StandardScaler + shrunk, floored class covariances)",
         "notes": list(result.notes),
+        "selected_feature_sets": dict(result.selected),
     }
     write_json(paths["accuracy.json"], accuracy)
     _write_csv(paths["confusion.csv"], result.confusion, index=True)

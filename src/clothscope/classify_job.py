@@ -21,7 +21,9 @@ import pandas as pd
 from . import __version__
 from .atomic import write_json, write_text, write_with
 from .classify import POSTERIOR_PREFIX, loocv, metadata_path, predict, save_model, split_labelled, train_model, write_reports
-from .features import STATUS_OK, classifier_columns, read_table
+from .classify import choose_columns
+from .feature_sets import classifier_candidates, inverse_rendering_gain, joined_table
+from .features import STATUS_OK, read_table
 from .physics import load_physics_table, physics_for
 
 
@@ -39,9 +41,25 @@ def _provenance(table: pd.DataFrame) -> dict[str, Any]:
     }
 
 
+def versus_photo_line(comparison_csv: str | os.PathLike[str] | None, source: str) -> str:
+    """The feature-set report's one line on what the fit bought over the photo alone (for this source)."""
+    if source == "photo":
+        return "This classifier reads the photo alone (no inverse rendering)."
+    if not comparison_csv:
+        return "Inverse rendering against the photo alone: not measured (results/reports/feature_sets.md not built)."
+    return inverse_rendering_gain(pd.read_csv(comparison_csv), f"auto_{source}")
+
+
+def write_summary(reports_dir: str | os.PathLike[str], title: str, feature_set: str, accuracy_line: str, versus: str) -> None:
+    """``summary.md``: the classifier's accuracy and what the fit bought over the photo alone, in three lines."""
+    write_text(Path(reports_dir) / "summary.md", f"# {title}\n\nFeature set: `{feature_set}`. {accuracy_line}\n\n{versus}\n")
+
+
 def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.PathLike[str], source: str, reg: float | str,
                  reports_dir: str | os.PathLike[str], model_path: str | os.PathLike[str],
-                 physics_paths: dict[str, str], log: Any = None) -> dict[str, Any]:
+                 physics_paths: dict[str, str], log: Any = None, feature_set: str = "auto",
+                 comparison_csv: str | os.PathLike[str] | None = None,
+                 photo_table_path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     """Run the classifier stage for one normal source.
 
     Parameters
@@ -61,31 +79,53 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         Where the all-labelled model is pickled (``<path>.meta.json`` beside it).
     physics_paths
         Image id to the physics JSON to write; every image of the table needs one.
+    feature_set
+        Columns the classifier reads (:func:`clothscope.feature_sets.classifier_candidates`);
+        ``auto`` chooses among them inside each LOOCV fold, and for the model on all labelled images.
+    comparison_csv
+        ``feature_sets.csv``, for the line on what the fit bought over the photo alone (``summary.md``).
+    photo_table_path
+        The ``photo`` feature table, joined to ``table_path`` by image id (the photo's feature sets need it).
     """
-    table = read_table(table_path)
+    tables = {source: read_table(table_path)}
+    if photo_table_path and source != "photo":
+        tables["photo"] = read_table(photo_table_path)
+    table = joined_table(tables)
     physics_table = load_physics_table(physics_path)
-    columns = classifier_columns(table.columns)
+    candidates = classifier_candidates(feature_set, source, table.columns)
     ok = table[table["status"] == STATUS_OK]
     labelled, queries = split_labelled(ok)
     provenance = _provenance(table)
     problems = []
     try:
-        result = loocv(ok, columns, reg)
+        single = next(iter(candidates.values())) if len(candidates) == 1 else []
+        result = loocv(ok, single, reg, select_from=candidates if len(candidates) > 1 else None)
     except ValueError as err:  # too few labelled classes or images: no scores, the run goes on
         result, problems = None, [f"LOOCV not run: {str(err).splitlines()[0]}"]
     try:
-        model = train_model(ok, columns, reg)
+        chosen = choose_columns(ok, candidates, reg)[0] if len(candidates) > 1 else next(iter(candidates))
+        model = train_model(ok, candidates[chosen], reg)
     except ValueError as err:
         model = None
         problems.append(f"no model trained: {str(err).splitlines()[0]}")
     query_predictions = predict(model, queries) if model is not None else pd.DataFrame(columns=["image_id", "predicted_class"])
     if result is not None:
-        title = f"QDA, leave-one-out, {source} normal maps ({result.correct}/{result.n} correct)"
+        title = f"QDA, leave-one-out, {source} maps, {feature_set} feature set ({result.correct}/{result.n} correct)"
         write_reports(result, query_predictions, reports_dir, title)
+        accuracy_line = (f"LOOCV accuracy {100 * result.accuracy:.1f}% ({result.correct}/{result.n}; 95% Wilson interval "
+                         f"{100 * result.wilson_low:.1f}-{100 * result.wilson_high:.1f}%; chance {100 * result.chance_uniform:.1f}%).")
     else:
+        title = f"QDA, {source} maps, {feature_set} feature set"
         _write_unscored(reports_dir, source, problems, query_predictions)
+        accuracy_line = "; ".join(problems) + "."
+    if result is not None and result.selected:
+        accuracy_line += " Sets the folds chose: " + ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1])) + "."
     if model is not None:
-        save_model(model, model_path, metadata={"normal_source": source, "feature_table": str(table_path), **provenance,
+        accuracy_line += f" The model for new photos uses `{chosen}`."
+    write_summary(reports_dir, title, feature_set, accuracy_line, versus_photo_line(comparison_csv, source))
+    if model is not None:
+        save_model(model, model_path, metadata={"normal_source": source, "feature_set": feature_set, "chosen_set": chosen,
+                                                "feature_table": str(table_path), **provenance,
                                                 "n_labelled": int(len(labelled)),
                                                 "loocv_accuracy": float(result.accuracy) if result is not None else None})
     else:

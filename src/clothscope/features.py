@@ -1,17 +1,24 @@
 """Per-image feature rows (paper section 3.4) and the feature table.
 
-One row per sample-sheet image, computed from that image's tangent-space
-normal map and its BSDF parameters, taken from one of two *normal sources*:
+One row per sample-sheet image and *source*. A source gives a 2-D map for
+the paper's Algorithm 2 (a normal map, or a grey-level image), a scalar field
+for the thread-structure descriptor (:mod:`clothscope.structure`: a relief, or
+a luminance) and, where there is one, the BSDF:
 
 * ``fitted``: the inverse renderer's output, ``results/fit/<id>/normals/``
   (``state.json``: status, ``material`` {base_color, specular, roughness},
   ``texels_per_pixel``, ``runtime.mitsuba_variant``; ``normal.exr``: float32
   unit normals, read raw through Mitsuba's Bitmap, *not* through
   :func:`clothscope.imageio.decode_exr`, which clamps negative values to 0
-  as it is meant for radiance);
+  as it is meant for radiance; ``height.exr``, the height map the normals are derived from, which is
+  the field of the structure descriptor;
 * ``truth``: the ground truth beside a synthetic image
-  (:func:`clothscope.synth.generate.truth_paths`: ``<stem>.truth-normal.png``
-  and ``<stem>.truth.json``), which needs no fitting.
+  (:func:`clothscope.synth.generate.truth_paths`: ``<stem>.truth-normal.png``,
+  ``<stem>.truth-height.png`` and ``<stem>.truth.json``), which needs no fitting;
+* ``photo``: the prepared photo alone, no inverse rendering
+  (``results/prepared/<id>/image.exr``): its linear luminance is both the
+  grey-level map of Algorithm 2 and the field of the structure descriptor;
+  roughness and specular are 0 (constant columns, which the classifier drops).
 
 Columns (:func:`feature_schema`, an explicit pyarrow schema):
 
@@ -28,6 +35,10 @@ Columns (:func:`feature_schema`, an explicit pyarrow schema):
   factor, so the standardised classifier sees exactly the information in
   *s*); ``r_1..r_n``, ``z_1..z_n`` and ``n_peaks``
   (:func:`clothscope.spectrum.analyse_normal_map`);
+* this project's thread-structure descriptor, ``s_*``
+  (:data:`clothscope.structure.STRUCTURE_COLUMNS`), and the plain texture
+  baseline ``lbp_*`` (:data:`clothscope.structure.LBP_COLUMNS`), both of the
+  source's field;
 * with ``extras: true`` only, the ``x_*`` columns of
   :func:`clothscope.spectrum.extra_features` and :func:`surface_features`.
   ``x_period_px`` (thread period in photo pixels) is deliberately *not*
@@ -55,9 +66,10 @@ from . import __version__
 from .atomic import write_with
 from .imageio import read_exr
 from .spectrum import SpectrumResult, SpectrumSettings, analyse_normal_map, extra_features, plot_analysis
+from .structure import LBP_COLUMNS, STRUCTURE_COLUMNS, StructureSettings, lbp_baseline, structure_features
 
-#: Where the normal maps come from.
-NORMAL_SOURCES = ("truth", "fitted")
+#: Where the maps come from: synthetic ground truth, the inverse renderer, or the photo alone.
+NORMAL_SOURCES = ("truth", "fitted", "photo")
 #: Status of a usable row.
 STATUS_OK = "ok"
 #: Keys of the ``features:`` config section that are SpectrumSettings fields.
@@ -92,6 +104,11 @@ def spectrum_settings(features_config: dict[str, Any]) -> SpectrumSettings:
     return SpectrumSettings(**{k: features_config[k] for k in SPECTRUM_KEYS if k in features_config})
 
 
+def structure_settings(features_config: dict[str, Any]) -> StructureSettings:
+    """The :class:`StructureSettings` of a validated ``features:`` config section."""
+    return StructureSettings(**features_config["structure"])
+
+
 def row_settings(features_config: dict[str, Any]) -> dict[str, Any]:
     """The part of a ``features:`` section that changes a row (everything but ``normal_source``)."""
     return {k: v for k, v in sorted(features_config.items()) if k != "normal_source"}
@@ -110,14 +127,9 @@ def paper_feature_columns(n_peaks: int) -> list[str]:
 
 
 def feature_columns(n_peaks: int, extras: bool) -> list[str]:
-    """Every feature column of a table: the paper's, then the ``x_*`` extras when on."""
-    return paper_feature_columns(n_peaks) + (list(EXTRA_COLUMNS) if extras else [])
-
-
-def classifier_columns(table_columns: list[str] | Any) -> list[str]:
-    """The feature columns present in a table, in table order (what the classifier uses)."""
-    names = list(table_columns)
-    return [c for c in names if c in ("roughness", "specular_norm", "n_peaks") or c.startswith(("r_", "z_", "x_"))]
+    """Every feature column of a table: the paper's, the structure descriptor's, the LBP baseline's, the extras."""
+    return (paper_feature_columns(n_peaks) + list(STRUCTURE_COLUMNS) + list(LBP_COLUMNS)
+            + (list(EXTRA_COLUMNS) if extras else []))
 
 
 def feature_schema(n_peaks: int, extras: bool) -> pa.Schema:
@@ -136,7 +148,8 @@ def _finite(value: Any, name: str) -> float:
 
 
 def _row(image_id: str, fabric_class: str | None, settings: SpectrumSettings, extras: bool, provenance: dict[str, Any],
-         roughness: float, specular: float, features: dict[str, float], extra: dict[str, float]) -> dict[str, Any]:
+         roughness: float, specular: float, features: dict[str, float], extra: dict[str, float],
+         structure: dict[str, float]) -> dict[str, Any]:
     row: dict[str, Any] = {
         "image_id": str(image_id),
         "fabric_class": "" if fabric_class is None or (isinstance(fabric_class, float) and math.isnan(fabric_class))
@@ -156,6 +169,8 @@ def _row(image_id: str, fabric_class: str | None, settings: SpectrumSettings, ex
     for name in paper_feature_columns(settings.n_peaks)[2:]:
         value = features.get(name, 0.0)
         row[name] = int(round(value)) if name == "n_peaks" else _finite(value, name)
+    for name in (*STRUCTURE_COLUMNS, *LBP_COLUMNS):
+        row[name] = _finite(structure.get(name, 0.0), name)
     if extras:
         for name in EXTRA_COLUMNS:
             row[name] = _finite(extra.get(name, 0.0), name)
@@ -181,18 +196,22 @@ def surface_features(normals: np.ndarray, result: SpectrumResult, texels_per_pix
             "x_period_px": float(period / texels_per_pixel) if period and texels_per_pixel > 0 else 0.0}
 
 
-def compute_row(image_id: str, fabric_class: str | None, normals: np.ndarray, roughness: float, specular: float,
-                settings: SpectrumSettings, extras: bool, **provenance: Any) -> tuple[dict[str, Any], SpectrumResult]:
+def compute_row(image_id: str, fabric_class: str | None, normals: np.ndarray, field: np.ndarray, roughness: float,
+                specular: float, settings: SpectrumSettings, structure: StructureSettings, extras: bool,
+                **provenance: Any) -> tuple[dict[str, Any], SpectrumResult]:
     """:func:`feature_row` and the :class:`SpectrumResult` it came from (for the plot)."""
     result = analyse_normal_map(normals, settings)
     extra = {}
     if extras:
         extra = extra_features(result) | surface_features(np.asarray(normals), result, float(provenance.get("texels_per_pixel", 1.0)))
-    return _row(image_id, fabric_class, settings, extras, provenance, roughness, specular, result.features, extra), result
+    described = structure_features(field, structure)[0] | lbp_baseline(field)
+    row = _row(image_id, fabric_class, settings, extras, provenance, roughness, specular, result.features, extra, described)
+    return row, result
 
 
-def feature_row(image_id: str, fabric_class: str | None, normals: np.ndarray, roughness: float, specular: float,
-                settings: SpectrumSettings, extras: bool, **provenance: Any) -> dict[str, Any]:
+def feature_row(image_id: str, fabric_class: str | None, normals: np.ndarray, field: np.ndarray, roughness: float,
+                specular: float, settings: SpectrumSettings, structure: StructureSettings, extras: bool,
+                **provenance: Any) -> dict[str, Any]:
     """One image's feature row.
 
     Parameters
@@ -201,10 +220,14 @@ def feature_row(image_id: str, fabric_class: str | None, normals: np.ndarray, ro
         From the sample sheet; an empty class marks a query.
     normals
         (N, N, 3) tangent-space unit normals (or an (N, N) z map).
+    field
+        (H, W) scalar field of the structure descriptor (relief or luminance).
     roughness, specular
         The BSDF's roughness and scalar specular *s* (``specular_norm = sqrt(3) * s``).
     settings
         Spectrum analysis settings.
+    structure
+        Structure descriptor settings.
     extras
         Also compute the ``x_*`` extra features.
     **provenance
@@ -221,7 +244,8 @@ def feature_row(image_id: str, fabric_class: str | None, normals: np.ndarray, ro
     ValueError
         On an unusable normal map or non-finite roughness / specular.
     """
-    return compute_row(image_id, fabric_class, normals, roughness, specular, settings, extras, **provenance)[0]
+    return compute_row(image_id, fabric_class, normals, field, roughness, specular, settings, structure, extras,
+                       **provenance)[0]
 
 
 def unusable_row(image_id: str, fabric_class: str | None, settings: SpectrumSettings, extras: bool, status: str, reason: str,
@@ -230,7 +254,7 @@ def unusable_row(image_id: str, fabric_class: str | None, settings: SpectrumSett
     if status == STATUS_OK:
         raise ValueError("an unusable row needs a status other than 'ok'")
     return _row(image_id, fabric_class, settings, extras, {**provenance, "status": status, "reason": reason or status},
-                0.0, 0.0, {}, {})
+                0.0, 0.0, {}, {}, {})
 
 
 # --------------------------------------------------------------------------- normal sources
@@ -238,9 +262,14 @@ def unusable_row(image_id: str, fabric_class: str | None, settings: SpectrumSett
 
 @dataclass
 class NormalInput:
-    """An image's normal map and BSDF parameters from one normal source, or why there are none."""
+    """An image's maps and BSDF parameters from one source, or why there are none.
+
+    ``normals`` is what Algorithm 2 reads (normals or a grey-level map),
+    ``field`` what the structure descriptor reads (a relief or a luminance).
+    """
 
     normals: np.ndarray | None
+    field: np.ndarray | None
     roughness: float
     specular: float
     status: str
@@ -250,7 +279,7 @@ class NormalInput:
 
 
 def _unusable(status: str, reason: str, variant: str) -> NormalInput:
-    return NormalInput(None, 0.0, 0.0, status, " ".join(reason.split()), variant, 0.0)
+    return NormalInput(None, None, 0.0, 0.0, status, " ".join(reason.split()), variant, 0.0)
 
 
 def load_truth(image_path: str | os.PathLike[str]) -> NormalInput:
@@ -259,7 +288,7 @@ def load_truth(image_path: str | os.PathLike[str]) -> NormalInput:
     from .synth.generate import decode_normal, truth_paths
 
     paths = truth_paths(Path(image_path))
-    absent = [str(paths[k]) for k in ("normal", "json") if not paths[k].is_file()]
+    absent = [str(paths[k]) for k in ("normal", "height", "json") if not paths[k].is_file()]
     if absent:
         return _unusable("missing", f"no ground truth for {image_path}: {', '.join(absent)} not found", "truth")
     try:
@@ -267,7 +296,9 @@ def load_truth(image_path: str | os.PathLike[str]) -> NormalInput:
         normals = decode_normal(read_png(paths["normal"]))
         if normals.ndim != 3 or normals.shape[-1] < 3:
             raise ValueError(f"{paths['normal']}: expected an RGB normal map, got shape {normals.shape}")
-        return NormalInput(normals[..., :3], _finite(truth["roughness"], "roughness"), _finite(truth["specular"], "specular"),
+        height = read_png(paths["height"]).astype(np.float64)
+        height = height[..., 0] if height.ndim == 3 else height
+        return NormalInput(normals[..., :3], height, _finite(truth["roughness"], "roughness"), _finite(truth["specular"], "specular"),
                            STATUS_OK, "", "truth", 1.0)
     except (OSError, ValueError, KeyError, TypeError) as err:
         return _unusable("failed", f"ground truth of {image_path} unreadable: {type(err).__name__}: {err}", "truth")
@@ -291,22 +322,45 @@ def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
         if normals.ndim != 3 or normals.shape[-1] < 3:
             raise ValueError(f"normal.exr: expected 3 channels, got shape {normals.shape}")
         normals = normals[..., :3]
-        if not np.all(np.isfinite(normals)):
-            raise ValueError("normal.exr holds non-finite values")
-        return NormalInput(normals, _finite(material["roughness"], "roughness"), _finite(material["specular"], "specular"),
+        height = read_exr(folder / "height.exr")[..., 0].astype(np.float64)
+        if not (np.all(np.isfinite(normals)) and np.all(np.isfinite(height))):
+            raise ValueError("normal.exr or height.exr holds non-finite values")
+        return NormalInput(normals, height, _finite(material["roughness"], "roughness"), _finite(material["specular"], "specular"),
                            STATUS_OK, "", variant, _finite(state.get("texels_per_pixel", 1.0), "texels_per_pixel"))
     except (OSError, RuntimeError, ValueError, KeyError, TypeError) as err:
         return _unusable("failed", f"{folder}: {type(err).__name__}: {err}", variant)
 
 
-def load_normal_input(source: str, image_path: str | os.PathLike[str], fit_normals_dir: str | os.PathLike[str] | None) -> NormalInput:
-    """:func:`load_truth` or :func:`load_fitted`, by ``source``."""
+def load_photo(prepared_dir: str | os.PathLike[str]) -> NormalInput:
+    """The prepared photo's linear luminance (Rec. 709 weights), for the ``photo`` source; no BSDF."""
+    folder = Path(prepared_dir)
+    try:
+        status = json.loads((folder / "status.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        return _unusable("failed", f"{folder}/status.json unreadable: {type(err).__name__}: {err}", "photo")
+    if status.get("status") != "accepted":
+        return _unusable("skipped", f"photo rejected: {status.get('reason') or status.get('status')}", "photo")
+    try:
+        rgb = read_exr(folder / "image.exr")
+        if rgb.ndim != 3 or rgb.shape[-1] < 3:
+            raise ValueError(f"image.exr: expected 3 channels, got shape {rgb.shape}")
+        luminance = rgb[..., :3].astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
+        if not np.all(np.isfinite(luminance)):
+            raise ValueError("image.exr holds non-finite values")
+        return NormalInput(luminance, luminance, 0.0, 0.0, STATUS_OK, "", "photo", 1.0)
+    except (OSError, RuntimeError, ValueError) as err:
+        return _unusable("failed", f"{folder}: {type(err).__name__}: {err}", "photo")
+
+
+def load_normal_input(source: str, image_path: str | os.PathLike[str], source_dir: str | os.PathLike[str] | None) -> NormalInput:
+    """:func:`load_truth`, :func:`load_fitted` (``source_dir``: fit_normals folder) or :func:`load_photo`
+    (``source_dir``: prepared folder), by ``source``."""
     if source == "truth":
         return load_truth(image_path)
-    if source == "fitted":
-        if fit_normals_dir is None:
-            raise ValueError("the fitted normal source needs the fit_normals folder")
-        return load_fitted(fit_normals_dir)
+    if source in ("fitted", "photo"):
+        if source_dir is None:
+            raise ValueError(f"the {source} source needs its input folder")
+        return load_fitted(source_dir) if source == "fitted" else load_photo(source_dir)
     raise ValueError(f"normal source must be one of {', '.join(NORMAL_SOURCES)}, got {source!r}")
 
 
@@ -365,21 +419,22 @@ def plot_placeholder(target: str | os.PathLike[str], title: str, reason: str) ->
     write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=80))
 
 
-def features_job(image_id: str, fabric_class: str | None, source: str, image_path: str, fit_normals_dir: str | None,
+def features_job(image_id: str, fabric_class: str | None, source: str, image_path: str, source_dir: str | None,
                  features_config: dict[str, Any], row_path: str, plot_path: str, log: Any = None) -> dict[str, Any]:
-    """The ``features`` rule for one image: load its normal source, write the one-row Parquet and the plot."""
+    """The ``features`` rule for one image: load its source, write the one-row Parquet and the plot."""
     settings = spectrum_settings(features_config)
+    structure = structure_settings(features_config)
     extras = bool(features_config.get("extras", False))
     schema = feature_schema(settings.n_peaks, extras)
-    loaded = load_normal_input(source, image_path, fit_normals_dir)
+    loaded = load_normal_input(source, image_path, source_dir)
     provenance = {"normal_source": source, "mitsuba_variant": loaded.mitsuba_variant or "unknown",
                   "config_hash": config_hash(features_config, source), "texels_per_pixel": loaded.texels_per_pixel}
-    title = f"{image_id} ({fabric_class or 'query'}, {source} normals)"
+    title = f"{image_id} ({fabric_class or 'query'}, {source} {'luminance' if source == 'photo' else 'normals'})"
     row, result = None, None
     if loaded.status == STATUS_OK:
         try:
-            row, result = compute_row(image_id, fabric_class, loaded.normals, loaded.roughness, loaded.specular, settings,
-                                      extras, **provenance)
+            row, result = compute_row(image_id, fabric_class, loaded.normals, loaded.field, loaded.roughness,
+                                      loaded.specular, settings, structure, extras, **provenance)
         except ValueError as err:
             loaded = _unusable("failed", f"spectrum analysis: {err}", loaded.mitsuba_variant)
     if row is None:

@@ -133,6 +133,55 @@ def zoom_map(map_: np.ndarray, factor: float) -> np.ndarray:
     return _renormalise(out) if array.ndim == 3 else out
 
 
+def _check_photo(rgb: np.ndarray) -> np.ndarray:
+    array = np.asarray(rgb, dtype=np.float64)
+    if array.ndim != 3 or array.shape[-1] != 3 or array.shape[0] != array.shape[1]:
+        raise ValueError(f"photo must be a square (N, N, 3) RGB array, got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError("photo contains NaN or infinite values")
+    return array
+
+
+def rotate_photo(rgb: np.ndarray, degrees: float) -> np.ndarray:
+    """Rotate an RGB photo (values in [0, 1]) about its centre and crop the valid centre, as :func:`rotate_map`."""
+    array = _check_photo(rgb)
+    theta = math.radians(degrees)
+    c, s = math.cos(theta), math.sin(theta)
+    out = _resample(array, np.array([[c, s], [-s, c]]), rotated_crop_size(array.shape[0], degrees))
+    return np.clip(out, 0.0, 1.0)
+
+
+def zoom_photo(rgb: np.ndarray, factor: float) -> np.ndarray:
+    """The centre ``1 / factor`` of an RGB photo (a camera ``factor`` times closer), at its own pixel size.
+
+    No resampling: the prepare stage resizes every photo to the working
+    resolution, so the threads come out ``factor`` times longer there.
+    """
+    if not math.isfinite(factor) or factor < 1:
+        raise ValueError(f"zoom factor must be a finite number >= 1, got {factor!r}")
+    array = _check_photo(rgb)
+    side = max(1, int(round(array.shape[0] / factor)))
+    start = (array.shape[0] - side) // 2
+    return array[start : start + side, start : start + side].copy()
+
+
+def shift_hue(rgb: np.ndarray, degrees: float) -> np.ndarray:
+    """Turn every pixel's hue by ``degrees`` (HSV), keeping saturation and value: a cloth dyed another colour."""
+    from matplotlib.colors import hsv_to_rgb, rgb_to_hsv
+
+    hsv = rgb_to_hsv(np.clip(_check_photo(rgb), 0.0, 1.0))
+    hsv[..., 0] = (hsv[..., 0] + degrees / 360.0) % 1.0
+    return hsv_to_rgb(hsv)
+
+
+#: The photo transformations of the fitted-map invariance benchmark, by name.
+PHOTO_TRANSFORMS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
+    "rotate30": lambda rgb: rotate_photo(rgb, 30.0),
+    "zoom1.5": lambda rgb: zoom_photo(rgb, 1.5),
+    "hue120": lambda rgb: shift_hue(rgb, 120.0),
+}
+
+
 ModelFactory = Callable[[], Any]
 
 

@@ -1,6 +1,7 @@
 # Stage 5: QDA on the feature table. LOOCV reports, the all-labelled model, predictions for
-# the query images (empty fabric_class) and per-image ArcSim physics; the paper's three
-# experiments and the spectrum-settings sweep (features recomputed from the normal maps).
+# the query images (empty fabric_class) and per-image ArcSim physics; the feature sets side
+# by side (fitted maps, the photo alone, the ground truth); the paper's three experiments
+# and the spectrum-settings sweep (features recomputed from the normal maps).
 # Targets without wildcards, for the configured features.normal_source:
 #   classify_reports, paper_reports, sweep_reports
 
@@ -9,6 +10,8 @@ rule classify:
     input:
         table=feature_table("{source}"),
         physics=config["classify"]["physics"],
+        comparison=feature_set_comparison,
+        photo=lambda wildcards: [] if wildcards.source == "photo" else feature_table("photo"),
     output:
         reports=[reports_path("{source}", name) for name in CLASSIFY_REPORTS],
         model=os.path.join(RESULTS, "models", "{source}", "qda.pkl"),
@@ -17,6 +20,7 @@ rule classify:
     params:
         reg=config["classify"]["reg"],
         images=IMAGE_IDS,
+        feature_set=config["classify"]["feature_set"],
     log:
         os.path.join(RESULTS, "logs", "classify", "{source}.log"),
     threads: 1
@@ -29,6 +33,31 @@ rule classify:
         "../scripts/classify.py"
 
 
+rule feature_sets:
+    input:
+        **{source: feature_table(source) for source in report_sources()},
+    output:
+        md=report(
+            feature_set_outputs()[0],
+            caption="../report/feature_sets.rst",
+            category="Classifier",
+        ),
+        csv=feature_set_outputs()[1],
+    params:
+        reg=config["classify"]["reg"],
+        fitted_set=f"auto_{config['features']['normal_source']}",
+    log:
+        os.path.join(RESULTS, "logs", "feature_sets.log"),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    conda:
+        "../../environment.yml"
+    script:
+        "../scripts/feature_sets.py"
+
+
 rule paper_tables:
     input:
         table=feature_table("{source}"),
@@ -36,6 +65,8 @@ rule paper_tables:
     output:
         md=reports_path("{source}", "paper_tables.md"),
         csv=reports_path("{source}", "paper_tables.csv"),
+    wildcard_constraints:
+        source="truth|fitted",
     params:
         settings=FEATURE_SETTINGS,
         reg=config["classify"]["reg"],
@@ -59,6 +90,8 @@ rule sweep:
     output:
         csv=reports_path("{source}", "sweep.csv"),
         png=reports_path("{source}", "sweep.png"),
+    wildcard_constraints:
+        source="truth|fitted",
     params:
         settings=FEATURE_SETTINGS,
         sweep=config["classify"]["sweep"],
@@ -90,3 +123,33 @@ rule paper_reports:
 rule sweep_reports:
     input:
         sweep_outputs(config["features"]["normal_source"]),
+
+
+rule spectra_diagnosis:
+    input:
+        normals=[fit_normals_dir(image) for image in images_with_truth()],
+    output:
+        md=report(
+            os.path.join(RESULTS, "reports", "diagnosis", "spectra.md"),
+            caption="../report/spectra_diagnosis.rst",
+            category="Classifier",
+        ),
+        csv=os.path.join(RESULTS, "reports", "diagnosis", "spectra.csv"),
+        png=report(
+            os.path.join(RESULTS, "reports", "diagnosis", "spectra.png"),
+            caption="../report/spectra_diagnosis.rst",
+            category="Classifier",
+        ),
+    params:
+        images=diagnosis_images(),
+        structure=config["features"]["structure"],
+    log:
+        os.path.join(RESULTS, "logs", "spectra_diagnosis.log"),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    conda:
+        "../../environment.yml"
+    script:
+        "../scripts/spectra_diagnosis.py"

@@ -49,10 +49,10 @@ def rejection_report():
     return os.path.join(RESULTS, "reports", "rejected.tsv")
 
 
-def synthetic_outputs(kind):
-    """Regenerated synthetic files of one kind ("image" or "truth") for every default image."""
+def synthetic_outputs(kind, dataset="synthetic"):
+    """Rendered synthetic files of one kind ("image" or "truth") for every default image of a dataset."""
     suffix = {"image": ".png", "truth": ".truth.json"}[kind]
-    return [os.path.join(RESULTS, "synthetic", fabric, f"{image}{suffix}") for fabric, _, image in SYNTHETIC]
+    return [os.path.join(RESULTS, dataset, fabric, f"{image}{suffix}") for fabric, _, image in SYNTHETIC]
 
 
 # --- features and classifier (workflow/rules/features.smk, classify.smk) ---
@@ -83,15 +83,19 @@ def fit_normals_dir(image):
 
 
 def normal_source_inputs(source, image):
-    """Files one image's features come from: its fit_normals folder, or its image and ground truth."""
+    """Files one image's features come from: its fit_normals folder, its prepared photo, or its image and ground truth."""
     if source == "fitted":
         return {"normals": fit_normals_dir(image)}
+    if source == "photo":
+        return {"prepared": os.path.join(RESULTS, "prepared", image)}
     path = SAMPLES.loc[image, "path"]
     truth = truth_paths(Path(path))
     return {"image": path, **{key: str(truth[key]) for key in ("normal", "json") if truth[key].is_file()}}
 
 
 def feature_inputs(wildcards):
+    if wildcards.image not in SAMPLES.index:  # e.g. "table": rule feature_table makes that file
+        return {}
     return normal_source_inputs(wildcards.source, wildcards.image)
 
 
@@ -117,11 +121,30 @@ def reports_path(source, name):
     return os.path.join(RESULTS, "reports", source, name)
 
 
-CLASSIFY_REPORTS = ("accuracy.json", "confusion.csv", "confusion.png", "per_class.csv", "predictions.csv", "images.tsv")
+CLASSIFY_REPORTS = ("accuracy.json", "confusion.csv", "confusion.png", "per_class.csv", "predictions.csv", "images.tsv",
+                    "summary.md")
 
 
 def classify_outputs(source):
     return [reports_path(source, name) for name in CLASSIFY_REPORTS]
+
+
+def report_sources():
+    """Sources the feature-set report compares: the configured one, the photo alone, and the ground truth if any."""
+    main = config["features"]["normal_source"]
+    sources = [main] + ([] if main == "photo" else ["photo"])
+    if main != "truth" and images_with_truth():
+        sources.append("truth")
+    return sources
+
+
+def feature_set_outputs():
+    return [os.path.join(RESULTS, "reports", f"feature_sets.{ext}") for ext in ("md", "csv")]
+
+
+def feature_set_comparison(wildcards):
+    """The feature-set CSV, for the classifier of the configured source (its summary line)."""
+    return feature_set_outputs()[1] if wildcards.source == config["features"]["normal_source"] else []
 
 
 def physics_outputs(source):
@@ -143,6 +166,19 @@ def fit_dir(stage):
 def images_with_truth():
     """Sample-sheet images that carry synthetic ground truth (the accuracy report needs it)."""
     return [i for i in IMAGE_IDS if truth_paths(Path(SAMPLES.loc[i, "path"]))["json"].exists()]
+
+
+def diagnosis_images():
+    """Images with ground truth: their class, photo path and fit_normals folder (params of spectra_diagnosis)."""
+    return {i: {"fabric_class": SAMPLES.loc[i, "fabric_class"], "path": SAMPLES.loc[i, "path"], "fit_dir": fit_normals_dir(i)}
+            for i in images_with_truth()}
+
+
+def diagnosis_outputs():
+    """The true-against-fitted spectra report, when the sheet has images with ground truth and the source is fitted."""
+    if config["features"]["normal_source"] != "fitted" or not images_with_truth():
+        return []
+    return [os.path.join(RESULTS, "reports", "diagnosis", f"spectra.{ext}") for ext in ("md", "csv", "png")]
 
 
 def fit_accuracy_report():

@@ -1,21 +1,25 @@
 # Re-render the embedded synthetic dataset from its seed and compare it with the
-# committed copy (target: check_synthetic). Not part of `all`: data/ already holds it.
+# committed copy (target: check_synthetic), or render the held-out set from another seed
+# (target: holdout_set, into results/holdout/ with its sample sheet). Not part of `all`.
 
 
 rule synthesize:
     output:
-        image=os.path.join(RESULTS, "synthetic", "{fabric}", "{image}.png"),
-        truth=os.path.join(RESULTS, "synthetic", "{fabric}", "{image}.truth.json"),
-        normal=os.path.join(RESULTS, "synthetic", "{fabric}", "{image}.truth-normal.png"),
-        height=os.path.join(RESULTS, "synthetic", "{fabric}", "{image}.truth-height.png"),
-        fold=os.path.join(RESULTS, "synthetic", "{fabric}", "{image}.truth-fold.npy"),
+        image=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.png"),
+        truth=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.truth.json"),
+        normal=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.truth-normal.png"),
+        height=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.truth-height.png"),
+        fold=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.truth-fold.npy"),
+    wildcard_constraints:
+        dataset="synthetic|holdout",
     params:
         settings=config["synthesize"],
+        seed=lambda wildcards: config["synthesize"]["seed" if wildcards.dataset == "synthetic" else "holdout_seed"],
         variant=config["variant"],
     log:
-        os.path.join(RESULTS, "logs", "synthesize", "{fabric}", "{image}.log"),
+        os.path.join(RESULTS, "logs", "synthesize", "{dataset}", "{fabric}", "{image}.log"),
     benchmark:
-        os.path.join(RESULTS, "benchmarks", "synthesize", "{fabric}", "{image}.tsv")
+        os.path.join(RESULTS, "benchmarks", "synthesize", "{dataset}", "{fabric}", "{image}.tsv")
     threads: 2
     resources:
         mem_mb=3000,
@@ -49,3 +53,22 @@ rule check_synthetic:
         "../../environment.yml"
     script:
         "../scripts/check_synthetic.py"
+
+
+rule holdout_set:
+    input:
+        synthetic_outputs("image", "holdout"),
+    output:
+        os.path.join(RESULTS, "holdout", "samples.tsv"),
+    params:
+        seed=config["synthesize"]["holdout_seed"],
+    log:
+        os.path.join(RESULTS, "logs", "holdout_set.log"),
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    conda:
+        "../../environment.yml"
+    script:
+        "../scripts/holdout_sheet.py"

@@ -8,7 +8,7 @@ with job_log(snakemake.log[0], "features") as log:
         snakemake.params.fabric_class,
         snakemake.wildcards.source,
         snakemake.params.path,
-        snakemake.input.get("normals"),
+        snakemake.input.get("normals") or snakemake.input.get("prepared"),
         snakemake.params.settings,
         snakemake.output.row,
         snakemake.output.plot,

@@ -11,7 +11,7 @@ with job_log(snakemake.log[0], "synthesize") as log:
     result = synthesize(
         fabric,
         list(DYES).index(dye),
-        settings["seed"],
+        snakemake.params.seed,
         settings["resolution"],
         settings["spp"],
         settings["mesh_resolution"],

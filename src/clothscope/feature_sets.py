@@ -1,0 +1,264 @@
+"""Feature sets side by side: what the fitted maps buy over the photo alone, on the same images.
+
+A *feature set* is a list of (source, column group) parts: the paper's
+features, this project's structure descriptor, the BSDF, or the plain LBP
+baseline, taken from the ``fitted``, ``photo`` or ``truth`` feature table.
+:func:`compare_feature_sets` scores every set whose sources are present by
+the same LOOCV QDA (:func:`clothscope.classify.loocv`) on the same images:
+those usable in every compared source. Nothing here is tuned on the scores.
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from .atomic import write_text
+from .classify import loocv
+from .features import STATUS_OK
+from .structure import LBP_COLUMNS, STRUCTURE_COLUMNS
+
+#: Column groups of a feature table.
+BRDF_COLUMNS = ("roughness", "specular_norm")
+#: Column groups the ``auto`` feature set chooses from, inside each LOOCV fold (ties go to the first).
+AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp")
+#: The classifier of record's feature sets (``classify.feature_set``): a group of the maps' own table, the
+#: photo's structure descriptor, both, or ``auto`` (chosen inside each fold among all of these).
+CLASSIFIER_SETS = (*AUTO_GROUPS, "photo_structure", "plus_photo")
+#: Provenance columns a joined table keeps from its first source.
+JOINED_PROVENANCE = ("image_id", "fabric_class", "status", "reason", "normal_source", "mitsuba_variant", "config_hash")
+
+
+def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
+    """The columns of one group present in a table.
+
+    ``paper``: roughness, specular_norm, ``r_*``, ``z_*``, ``n_peaks`` and any
+    ``x_*`` extras; ``structure``: ``s_*``; ``brdf``: roughness and
+    specular_norm; ``structure_brdf``: both; ``profile_brdf``: the radial
+    profile ``s_prof_*`` and the BRDF; ``lbp``: the LBP baseline.
+    """
+    names = list(table_columns)
+    if group == "paper":
+        return [c for c in names if c in ("roughness", "specular_norm", "n_peaks") or c.startswith(("r_", "z_", "x_"))]
+    profile = tuple(c for c in STRUCTURE_COLUMNS if c.startswith("s_prof_"))
+    wanted = {"structure": STRUCTURE_COLUMNS, "brdf": BRDF_COLUMNS, "lbp": LBP_COLUMNS,
+              "structure_brdf": STRUCTURE_COLUMNS + BRDF_COLUMNS, "profile_brdf": profile + BRDF_COLUMNS}.get(group)
+    if wanted is None:
+        raise ValueError(f"unknown feature group {group!r}")
+    return [c for c in names if c in wanted]
+
+
+def auto_candidates(table_columns: list[str] | pd.Index, prefix: str = "") -> dict[str, list[str]]:
+    """The column sets the ``auto`` feature set chooses from (:data:`AUTO_GROUPS`), optionally prefixed."""
+    stripped = [c[len(prefix):] for c in table_columns if c.startswith(prefix)] if prefix else list(table_columns)
+    return {group: [prefix + c for c in group_columns(group, stripped)] for group in AUTO_GROUPS}
+
+
+@dataclass(frozen=True)
+class FeatureSet:
+    """A named list of (source, group) parts."""
+
+    name: str
+    description: str
+    parts: tuple[tuple[str, str], ...]
+
+    @property
+    def sources(self) -> tuple[str, ...]:
+        return tuple(dict.fromkeys(source for source, _ in self.parts))
+
+    @property
+    def photo_only(self) -> bool:
+        return self.sources == ("photo",)
+
+
+FEATURE_SETS = (
+    FeatureSet("paper_fitted", "the paper's features (Algorithm 2 + BRDF) on fitted normal maps", (("fitted", "paper"),)),
+    FeatureSet("structure_fitted", "structure descriptor of the fitted relief", (("fitted", "structure"),)),
+    FeatureSet("structure_brdf_fitted", "structure descriptor of the fitted relief + fitted BRDF",
+               (("fitted", "structure_brdf"),)),
+    FeatureSet("paper_photo", "Algorithm 2 on the photo's grey levels", (("photo", "paper"),)),
+    FeatureSet("structure_photo", "structure descriptor of the photo's luminance", (("photo", "structure"),)),
+    FeatureSet("lbp_photo", "uniform LBP histograms (8/1, 16/2, 24/3) of the photo's luminance", (("photo", "lbp"),)),
+    FeatureSet("fitted_plus_photo", "structure + BRDF from the fit, with the photo's structure descriptor",
+               (("fitted", "structure_brdf"), ("photo", "structure"))),
+    FeatureSet("auto_fitted", "chosen inside each fold among structure+BRDF, profile+BRDF, paper and LBP on fitted maps",
+               (("fitted", "auto"),)),
+    FeatureSet("auto_photo", "chosen inside each fold among the same sets on the photo", (("photo", "auto"),)),
+    FeatureSet("auto_truth", "chosen inside each fold among the same sets on ground-truth maps", (("truth", "auto"),)),
+    FeatureSet("paper_truth", "the paper's features on ground-truth normal maps", (("truth", "paper"),)),
+    FeatureSet("structure_brdf_truth", "structure descriptor of the true relief + true BRDF", (("truth", "structure_brdf"),)),
+)
+
+
+def usable(table: pd.DataFrame) -> pd.DataFrame:
+    """Labelled rows with status ok, indexed by image id."""
+    label = table["fabric_class"].fillna("").astype(str).str.strip()
+    return table[(table["status"] == STATUS_OK) & (label != "")].set_index("image_id")
+
+
+def common_images(tables: dict[str, pd.DataFrame]) -> list[str]:
+    """Ids of the labelled images usable in every table, in the first table's order."""
+    ids: list[str] | None = None
+    for table in tables.values():
+        ok = [str(i) for i in usable(table).index]
+        ids = ok if ids is None else [i for i in ids if i in set(ok)]
+    return ids or []
+
+
+def joined_features(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], images: list[str]) -> tuple[pd.DataFrame, list[str]]:
+    """One table of ``images`` with the set's columns, named ``<source>.<column>``, and those names."""
+    frame = pd.DataFrame({"image_id": images})
+    columns: list[str] = []
+    for source, group in feature_set.parts:
+        rows = usable(tables[source]).loc[images]
+        if "fabric_class" not in frame:
+            frame["fabric_class"] = rows["fabric_class"].astype(str).to_numpy()
+        groups = AUTO_GROUPS if group == "auto" else (group,)
+        for column in dict.fromkeys(c for g in groups for c in group_columns(g, rows.columns)):
+            name = f"{source}.{column}"
+            if name not in frame:
+                frame[name] = rows[column].to_numpy(dtype=float)
+                columns.append(name)
+    return frame, columns
+
+
+def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], images: list[str],
+                      reg: float | str) -> dict[str, object]:
+    """LOOCV of one feature set on ``images``: a report row (``status`` says why when not scored)."""
+    row: dict[str, object] = {"feature_set": feature_set.name, "description": feature_set.description,
+                              "sources": "+".join(feature_set.sources), "photo_only": feature_set.photo_only,
+                              "n_features": 0, "n": 0, "correct": 0, "accuracy": 0.0, "wilson_low": 0.0,
+                              "wilson_high": 0.0, "chance": 0.0, "status": "ok", "reason": ""}
+    try:
+        frame, columns = joined_features(feature_set, tables, images)
+        auto = [source for source, group in feature_set.parts if group == "auto"]
+        select_from = auto_candidates(columns, f"{auto[0]}.") if auto else None
+        result = loocv(frame, columns, reg, select_from=select_from)
+    except (KeyError, ValueError) as err:
+        row.update(status="not scored", reason=" ".join(str(err).split()))
+        return row
+    chosen = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
+    row.update(reason=f"folds chose: {chosen}" if chosen else "", n_features=len(result.feature_columns), n=result.n, correct=result.correct, accuracy=result.accuracy,
+               wilson_low=result.wilson_low, wilson_high=result.wilson_high, chance=result.chance_uniform)
+    return row
+
+
+def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str = "auto") -> pd.DataFrame:
+    """Every feature set whose sources are all in ``tables``, scored on the images usable in all of them.
+
+    ``truth`` is left out of the common image set when some of those images
+    have no ground truth (a photo of the user's own); its sets then say so.
+    """
+    base = {s: t for s, t in tables.items() if s != "truth"}
+    images = common_images(base) if base else common_images(tables)
+    rows = []
+    for feature_set in FEATURE_SETS:
+        if not all(source in tables for source in feature_set.sources):
+            continue
+        if "truth" in feature_set.sources and not set(images) <= set(map(str, usable(tables["truth"]).index)):
+            rows.append(score_feature_set(FeatureSet(feature_set.name, feature_set.description, ()), {}, [], reg)
+                        | {"sources": "truth", "status": "not scored", "reason": "some images have no ground truth"})
+            continue
+        rows.append(score_feature_set(feature_set, tables, images, reg))
+    return pd.DataFrame(rows)
+
+
+def inverse_rendering_gain(report: pd.DataFrame, fitted_set: str) -> str:
+    """One line: the fitted set's LOOCV accuracy against the best photo-only set's, in points."""
+    scored = report[report["status"] == "ok"]
+    fitted = scored[scored["feature_set"] == fitted_set]
+    photo = scored[scored["photo_only"].astype(bool)]
+    if fitted.empty or photo.empty:
+        return "Inverse rendering against the photo alone: not measured (both need scored feature sets)."
+    best = photo.loc[photo["accuracy"].idxmax()]
+    gain = 100.0 * (float(fitted["accuracy"].iloc[0]) - float(best["accuracy"]))
+    verb = "bought" if gain > 0 else ("cost" if gain < 0 else "changed nothing:")
+    return (f"Inverse rendering {verb} {abs(gain):.1f} points over the photo alone: {fitted_set} "
+            f"{100 * float(fitted['accuracy'].iloc[0]):.1f}% against the best photo-only set, {best['feature_set']}, "
+            f"{100 * float(best['accuracy']):.1f}% (LOOCV, same {int(best['n'])} images).")
+
+
+def _percent(value: float) -> str:
+    return f"{100.0 * value:.1f}%" if math.isfinite(value) else "-"
+
+
+def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str]) -> str:
+    """The Markdown of ``feature_sets.md``."""
+    lines = ["# Feature sets side by side", "",
+             f"LOOCV QDA (the classifier of record, Ledoit-Wolf shrinkage) on the same labelled images, from the "
+             f"sources {', '.join(sources)}. 95% Wilson intervals; chance is 1 / number of classes.", "",
+             gain_line, "",
+             "| feature set | what | features | correct | accuracy | 95% interval | chance |",
+             "|---|---|---|---|---|---|---|"]
+    for _, row in report.iterrows():
+        if row["status"] != "ok":
+            lines.append(f"| {row['feature_set']} | {row['description']} | - | - | {row['status']}: {row['reason']} | - | - |")
+            continue
+        lines.append(f"| {row['feature_set']} | {row['description']} | {row['n_features']} | {row['correct']}/{row['n']} | "
+                     f"{_percent(row['accuracy'])} | {_percent(row['wilson_low'])}-{_percent(row['wilson_high'])} | "
+                     f"{_percent(row['chance'])} |")
+    lines += ["", "Features are standardised and constant columns dropped inside each fold; no setting of the "
+              "descriptor or the classifier is chosen by these scores in the workflow (see docs/design.md for how "
+              "the descriptor's defaults were chosen, and on which images)."]
+    return "\n".join(lines) + "\n"
+
+
+def feature_sets_job(table_paths: dict[str, str], reg: float | str, fitted_set: str, md_path: str | os.PathLike[str],
+                     csv_path: str | os.PathLike[str], log: object = None) -> pd.DataFrame:
+    """The ``feature_sets`` rule: read each source's feature table, compare, write Markdown and CSV."""
+    tables = {source: pd.read_parquet(path) for source, path in table_paths.items()}
+    report = compare_feature_sets(tables, reg)
+    line = inverse_rendering_gain(report, fitted_set)
+    write_text(Path(csv_path), report.to_csv(index=False, lineterminator="\n", float_format="%.6f"))
+    write_text(Path(md_path), report_markdown(report, line, list(tables)))
+    if log is not None:
+        log.info("%s", line)
+    return report
+
+
+def joined_table(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """Every image of the first table, with each source's feature columns as ``<source>.<column>``.
+
+    An image is ``ok`` only where it is ok in every source; otherwise it takes
+    the first failing source's status and reason (prefixed with the source).
+    """
+    sources = list(tables)
+    first = tables[sources[0]]
+    frame = first[[c for c in JOINED_PROVENANCE if c in first.columns]].reset_index(drop=True).copy()
+    for source in sources:
+        table = tables[source].set_index("image_id").reindex(frame["image_id"])
+        for column in dict.fromkeys(c for g in (*AUTO_GROUPS, "structure") for c in group_columns(g, table.columns)):
+            frame[f"{source}.{column}"] = table[column].fillna(0.0).to_numpy(dtype=float)
+        status = table["status"].fillna("missing").to_numpy()
+        failing = (frame["status"].to_numpy() == STATUS_OK) & (status != STATUS_OK)
+        reasons = table["reason"].fillna(f"no {source} row").astype(str).to_numpy()
+        frame.loc[failing, "status"] = status[failing]
+        frame.loc[failing, "reason"] = [f"{source}: {r}" for r in reasons[failing]]
+    return frame
+
+
+def classifier_candidates(feature_set: str, maps: str, columns: list[str] | pd.Index) -> dict[str, list[str]]:
+    """Column sets of a joined table for one ``classify.feature_set`` (several for ``auto``).
+
+    ``maps`` is the classifier's own source (``fitted``, ``truth`` or ``photo``);
+    the photo sets need a ``photo`` source beside it.
+    """
+    names = list(columns)
+
+    def of(source: str, group: str) -> list[str]:
+        prefix = f"{source}."
+        return [prefix + c for c in group_columns(group, [n[len(prefix):] for n in names if n.startswith(prefix)])]
+
+    sets = {group: of(maps, group) for group in AUTO_GROUPS}
+    if maps != "photo" and any(n.startswith("photo.") for n in names):
+        sets["photo_structure"] = of("photo", "structure")
+        sets["plus_photo"] = of(maps, "structure_brdf") + of("photo", "structure")
+    if feature_set == "auto":
+        return sets
+    if feature_set not in sets:
+        raise ValueError(f"feature set {feature_set!r} needs sources this classifier does not have (it reads {maps}"
+                         f"{' and photo' if 'photo_structure' in sets else ''})")
+    return {feature_set: sets[feature_set]}

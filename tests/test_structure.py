@@ -1,0 +1,210 @@
+"""The thread-structure descriptor: invariances by construction, hard inputs, and the feature-set report."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings as hsettings, strategies as st
+from scipy import ndimage
+
+from clothscope.feature_sets import FEATURE_SETS, compare_feature_sets, group_columns, inverse_rendering_gain
+from clothscope.structure import (LBP_COLUMNS, LBP_SCALES, STRUCTURE_COLUMNS, StructureSettings, lbp_baseline,
+                                  structure_features)
+
+SETTINGS = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3)
+
+
+def weave(size: int = 256, period: float = 10.0, angle_deg: float = 0.0, twill: bool = False) -> np.ndarray:
+    """A woven relief: two orthogonal thread families (a twill adds a diagonal float)."""
+    y, x = np.mgrid[:size, :size].astype(float)
+    a = np.radians(angle_deg)
+    u, v = x * np.cos(a) + y * np.sin(a), -x * np.sin(a) + y * np.cos(a)
+    h = np.cos(2 * np.pi * u / period) + 0.8 * np.cos(2 * np.pi * v / period)
+    if twill:
+        h += 0.6 * np.cos(2 * np.pi * (u + v) / (1.5 * period))
+    return h
+
+
+def test_features_are_finite_and_complete():
+    features, diag = structure_features(weave(), SETTINGS)
+    assert set(features) == set(STRUCTURE_COLUMNS)
+    assert all(np.isfinite(v) for v in features.values())
+    assert diag["lattice"] and diag["period_px"] == pytest.approx(10.0, rel=0.05)
+
+
+def test_plain_weave_lattice_is_square():
+    features, _ = structure_features(weave(), SETTINGS)
+    assert features["s_basis_ratio"] == pytest.approx(1.0, abs=0.05)
+    assert features["s_basis_angle"] == pytest.approx(1.0, abs=0.05)
+    assert features["s_peak_fraction"] > 0.5
+
+
+def test_contrast_and_offset_leave_features_unchanged():
+    base, _ = structure_features(weave(), SETTINGS)
+    other, _ = structure_features(3.0 * weave() + 5.0, SETTINGS)
+    for name in STRUCTURE_COLUMNS:
+        assert other[name] == pytest.approx(base[name], rel=1e-6, abs=1e-6), name
+
+
+@pytest.mark.parametrize("angle", [15.0, 30.0, 60.0])
+def test_rotation_moves_lattice_features_little(angle):
+    base, _ = structure_features(weave(twill=True), SETTINGS)
+    turned, _ = structure_features(weave(angle_deg=angle, twill=True), SETTINGS)
+    for name in ("s_basis_ratio", "s_basis_angle", "s_peak_fraction"):
+        assert turned[name] == pytest.approx(base[name], abs=0.08), name
+
+
+def cloth(period: float, seed: int = 0) -> np.ndarray:
+    """A weave with yarn-scale noise, like a fitted relief: peaks a few bins wide over a noise floor."""
+    noise = ndimage.gaussian_filter(np.random.default_rng(seed).normal(size=(256, 256)), period / 4)
+    return weave(period=period, twill=True) + 0.5 * noise / noise.std()
+
+
+@pytest.mark.parametrize("zoom", [0.67, 1.5])
+def test_zoom_keeps_features_in_units_of_the_fundamental(zoom):
+    base, base_diag = structure_features(cloth(9.0), SETTINGS)
+    zoomed, diag = structure_features(cloth(9.0 * zoom), SETTINGS)
+    assert diag["period_px"] == pytest.approx(base_diag["period_px"] * zoom, rel=0.04)
+    profile = [c for c in STRUCTURE_COLUMNS if c.startswith("s_prof")]
+    assert np.median(np.abs([zoomed[c] - base[c] for c in profile])) < 0.3
+    for name in ("s_basis_ratio", "s_basis_angle"):
+        assert zoomed[name] == pytest.approx(base[name], abs=0.08), name
+
+
+def test_smooth_shading_and_folds_do_not_change_the_lattice():
+    y, x = np.mgrid[:256, :256] / 256.0
+    shaded = weave() * (0.5 + x) + 20 * np.sin(2 * np.pi * y)
+    base, _ = structure_features(weave(), SETTINGS)
+    other, diag = structure_features(shaded, SETTINGS)
+    assert diag["lattice"] and diag["period_px"] == pytest.approx(10.0, rel=0.05)
+    assert other["s_basis_ratio"] == pytest.approx(base["s_basis_ratio"], abs=0.05)
+
+
+def test_flat_field_has_no_lattice_and_finite_zeros():
+    features, diag = structure_features(np.full((128, 128), 0.3), SETTINGS)
+    assert not diag["lattice"]
+    assert all(np.isfinite(v) for v in features.values())
+    assert features["s_peak_fraction"] == 0.0 and features["s_n_peaks"] == 0.0
+
+
+@hsettings(max_examples=15, deadline=None)
+@given(st.integers(min_value=0, max_value=2**31 - 1), st.sampled_from([64, 100, 256]))
+def test_white_noise_finds_no_lattice(seed, size):
+    noise = np.random.default_rng(seed).normal(size=(size, size))
+    features, diag = structure_features(noise, SETTINGS)
+    assert not diag["lattice"]
+    assert all(np.isfinite(v) for v in features.values())
+
+
+def test_lattice_survives_fibre_noise():
+    noisy = weave() + 0.5 * np.random.default_rng(3).normal(size=(256, 256))
+    _, diag = structure_features(noisy, SETTINGS)
+    assert diag["lattice"] and diag["period_px"] == pytest.approx(10.0, rel=0.05)
+
+
+@pytest.mark.parametrize("field, message", [
+    (np.zeros((8, 8)), "smaller"),
+    (np.zeros((64, 64, 3)), "2-D"),
+    (np.where(np.eye(64) > 0, np.nan, 0.0), "non-finite"),
+])
+def test_bad_fields_raise_value_error(field, message):
+    with pytest.raises(ValueError, match=message):
+        structure_features(field, SETTINGS)
+
+
+def test_settings_are_checked():
+    with pytest.raises(ValueError, match="border"):
+        StructureSettings(border=0.5, peak_threshold=10.0, fundamental_fraction=0.3)
+    with pytest.raises(ValueError, match="peak_threshold"):
+        StructureSettings(border=0.1, peak_threshold=1.0, fundamental_fraction=0.3)
+
+
+def test_lbp_baseline_histograms_sum_to_one():
+    values = lbp_baseline(weave())
+    assert list(values) == list(LBP_COLUMNS)
+    for neighbours, radius in LBP_SCALES:
+        total = sum(values[f"lbp_{neighbours}_{radius}_{k}"] for k in range(neighbours + 2))
+        assert total == pytest.approx(1.0)
+
+
+def test_lbp_baseline_is_rotation_invariant_for_a_quarter_turn():
+    field = weave(twill=True) + ndimage.gaussian_filter(np.random.default_rng(0).normal(size=(256, 256)), 1)
+    a, b = lbp_baseline(field), lbp_baseline(np.rot90(field))
+    assert max(abs(a[k] - b[k]) for k in a) < 0.01
+
+
+# --------------------------------------------------------------------------- the feature-set report
+
+
+def _table(source: str, rng: np.random.Generator, informative: bool, missing: tuple[str, ...] = ()) -> pd.DataFrame:
+    rows = []
+    for c, fabric in enumerate(("a", "b", "c")):
+        for k in range(6):
+            image_id = f"{fabric}{k}"
+            row = {"image_id": image_id, "fabric_class": fabric, "status": "missing" if image_id in missing else "ok", "reason": "",
+                   "roughness": 0.0, "specular_norm": 0.0, "r_1": rng.normal(), "z_1": rng.normal(), "n_peaks": 1}
+            for name in (*STRUCTURE_COLUMNS, *LBP_COLUMNS):
+                row[name] = rng.normal() + (6.0 * c if informative and name.startswith("s_prof") else 0.0)
+            if source != "photo":
+                row["roughness"], row["specular_norm"] = rng.normal(), rng.normal()
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def test_feature_sets_compare_on_the_same_images_and_say_what_the_fit_bought():
+    rng = np.random.default_rng(0)
+    tables = {"fitted": _table("fitted", rng, True, missing=("a0",)), "photo": _table("photo", rng, False),
+              "truth": _table("truth", rng, True)}
+    report = compare_feature_sets(tables)
+    assert set(report["feature_set"]) == {s.name for s in FEATURE_SETS}
+    scored = report[report["status"] == "ok"]
+    assert (scored["n"] == 17).all()  # a0 is unusable in the fitted table, so no set sees it
+    assert scored.set_index("feature_set").loc["structure_brdf_fitted", "accuracy"] > 0.9
+    assert bool(scored.set_index("feature_set").loc["lbp_photo", "photo_only"])
+    line = inverse_rendering_gain(report, "structure_brdf_fitted")
+    assert line.startswith("Inverse rendering bought") and "same 17 images" in line
+    assert np.isfinite(report[["accuracy", "wilson_low", "wilson_high"]].to_numpy(float)).all()
+
+
+def test_truth_sets_are_not_scored_when_some_images_lack_ground_truth():
+    rng = np.random.default_rng(1)
+    tables = {"fitted": _table("fitted", rng, True), "photo": _table("photo", rng, False),
+              "truth": _table("truth", rng, True, missing=("b2",))}
+    report = compare_feature_sets(tables).set_index("feature_set")
+    assert report.loc["paper_truth", "status"] == "not scored"
+    assert "ground truth" in report.loc["paper_truth", "reason"]
+
+
+def test_group_columns():
+    columns = ["roughness", "specular_norm", "r_1", "z_1", "n_peaks", "x_angle_deg", *STRUCTURE_COLUMNS, *LBP_COLUMNS]
+    assert group_columns("paper", columns) == ["roughness", "specular_norm", "r_1", "z_1", "n_peaks", "x_angle_deg"]
+    assert group_columns("structure_brdf", columns) == ["roughness", "specular_norm", *STRUCTURE_COLUMNS]
+    assert group_columns("lbp", columns) == list(LBP_COLUMNS)
+    with pytest.raises(ValueError, match="unknown"):
+        group_columns("colour", columns)
+
+
+def test_nested_selection_picks_the_informative_set_inside_every_fold():
+    from clothscope.classify import loocv
+
+    rng = np.random.default_rng(2)
+    table = _table("fitted", rng, True)
+    candidates = {"noise": ["lbp_8_1_0", "lbp_8_1_1"], "profile": [f"s_prof_{k}" for k in range(1, 4)]}
+    result = loocv(table, [], select_from=candidates)
+    assert sum(result.selected.values()) == result.n == 18
+    assert result.selected.get("profile", 0) >= 16 and result.accuracy > 0.9
+
+
+def test_joined_table_marks_an_image_unusable_when_any_source_fails():
+    from clothscope.feature_sets import classifier_candidates, joined_table
+
+    rng = np.random.default_rng(3)
+    joined = joined_table({"fitted": _table("fitted", rng, True), "photo": _table("photo", rng, False, missing=("c5",))})
+    row = joined.set_index("image_id").loc["c5"]
+    assert row["status"] == "missing" and row["reason"].startswith("photo:")
+    assert "fitted.s_prof_1" in joined and "photo.s_prof_1" in joined
+    sets = classifier_candidates("auto", "fitted", joined.columns)
+    assert set(sets) == {"structure_brdf", "profile_brdf", "paper", "lbp", "photo_structure", "plus_photo"}
+    assert sets["plus_photo"] == sets["structure_brdf"] + sets["photo_structure"]
+    with pytest.raises(ValueError, match="needs sources"):
+        classifier_candidates("photo_structure", "photo", joined.columns)

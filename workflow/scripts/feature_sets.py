@@ -1,0 +1,13 @@
+"""Snakemake job: the feature sets side by side (logic in clothscope.feature_sets)."""
+from clothscope.feature_sets import feature_sets_job
+from clothscope.joblog import job_log
+
+with job_log(snakemake.log[0], "feature_sets") as log:
+    feature_sets_job(
+        dict(snakemake.input.items()),
+        snakemake.params.reg,
+        snakemake.params.fitted_set,
+        snakemake.output.md,
+        snakemake.output.csv,
+        log,
+    )
