@@ -208,3 +208,28 @@ def test_joined_table_marks_an_image_unusable_when_any_source_fails():
     assert sets["plus_photo"] == sets["structure_brdf"] + sets["photo_structure"]
     with pytest.raises(ValueError, match="needs sources"):
         classifier_candidates("photo_structure", "photo", joined.columns)
+
+
+def test_diagnosis_of_a_fit_that_equals_the_truth_finds_nothing_wrong(tmp_path):
+    import json
+
+    from clothscope.diagnosis import diagnosis_job
+    from clothscope.features import load_truth
+    from clothscope.imageio import write_exr
+    from conftest import SYNTHETIC
+
+    images = {}
+    for image_id in ("canvas_red", "canvas_navy"):
+        path = SYNTHETIC / "canvas" / f"{image_id}.png"
+        truth = load_truth(path)
+        folder = tmp_path / image_id
+        folder.mkdir()
+        write_exr(folder / "normal.exr", truth.normals.astype(np.float32))
+        write_exr(folder / "height.exr", np.repeat(truth.field[..., None], 3, axis=2).astype(np.float32))
+        (folder / "state.json").write_text(json.dumps({"status": "fitted", "texels_per_pixel": 1.0, "material": {
+            "roughness": truth.roughness, "specular": truth.specular, "base_color": [0.5, 0.5, 0.5]}}))
+        images[image_id] = {"fabric_class": "canvas", "path": str(path), "fit_dir": str(folder)}
+    table = diagnosis_job(images, SETTINGS, tmp_path / "d.md", tmp_path / "d.csv", tmp_path / "d.png")
+    assert len(table) == 2 and np.allclose(table["fitted_period_ratio"], 1.0)
+    assert "| canvas | 2 / 2 (2) of 2 | 2 (2) | 1.000 | 0.00 (" in (tmp_path / "d.md").read_text()
+    assert "agrees with the truth" in (tmp_path / "d.md").read_text() and (tmp_path / "d.png").stat().st_size > 0

@@ -12,10 +12,13 @@ def test_dry_run_plans_one_job_per_image_per_stage(fresh_clone):
     assert result.returncode == 0, result.stderr[-2000:]
     counts = job_counts(result.stdout)
     assert counts["prepare"] == n_images and counts["rejection_report"] == 1 and counts["all"] == 1
-    # default normal_source is fitted: every image is fitted, then gets a feature row
-    for rule in ("fit_geometry", "fit_material", "fit_normals", "features"):
+    # default normal_source is fitted: every image is fitted, then gets a feature row from its fitted maps,
+    # its photo alone and its ground truth (the feature-set report compares the three)
+    for rule in ("fit_geometry", "fit_material", "fit_normals"):
         assert counts.get(rule) == n_images, rule
-    assert counts["feature_table"] == counts["classify"] == counts["paper_tables"] == counts["fit_accuracy"] == 1
+    assert counts["features"] == 3 * n_images and counts["feature_table"] == 3
+    assert counts["classify"] == counts["paper_tables"] == counts["fit_accuracy"] == 1
+    assert counts["feature_sets"] == counts["spectra_diagnosis"] == 1
     assert "sweep" not in counts
 
 
@@ -24,7 +27,9 @@ def test_dry_run_in_truth_mode_fits_nothing(fresh_clone):
     result = run_snakemake(fresh_clone, "-n", "--cores", "2", "--config", "features={normal_source: truth}")
     assert result.returncode == 0, result.stderr[-2000:]
     counts = job_counts(result.stdout)
-    assert counts["features"] == n_images and not any(rule.startswith("fit_") for rule in counts)
+    # truth and photo rows (no diagnosis: it compares with fitted maps)
+    assert counts["features"] == 2 * n_images and not any(rule.startswith("fit_") for rule in counts)
+    assert "spectra_diagnosis" not in counts
     assert "results/features/truth/table.parquet" in result.stdout
 
 

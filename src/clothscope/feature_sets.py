@@ -191,15 +191,15 @@ def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str]) ->
              f"LOOCV QDA (the classifier of record, Ledoit-Wolf shrinkage) on the same labelled images, from the "
              f"sources {', '.join(sources)}. 95% Wilson intervals; chance is 1 / number of classes.", "",
              gain_line, "",
-             "| feature set | what | features | correct | accuracy | 95% interval | chance |",
-             "|---|---|---|---|---|---|---|"]
+             "| feature set | what | features | correct | accuracy | 95% interval | chance | note |",
+             "|---|---|---|---|---|---|---|---|"]
     for _, row in report.iterrows():
         if row["status"] != "ok":
-            lines.append(f"| {row['feature_set']} | {row['description']} | - | - | {row['status']}: {row['reason']} | - | - |")
+            lines.append(f"| {row['feature_set']} | {row['description']} | - | - | {row['status']} | - | - | {row['reason']} |")
             continue
         lines.append(f"| {row['feature_set']} | {row['description']} | {row['n_features']} | {row['correct']}/{row['n']} | "
                      f"{_percent(row['accuracy'])} | {_percent(row['wilson_low'])}-{_percent(row['wilson_high'])} | "
-                     f"{_percent(row['chance'])} |")
+                     f"{_percent(row['chance'])} | {row['reason'] if isinstance(row['reason'], str) else ''} |")
     lines += ["", "Features are standardised and constant columns dropped inside each fold; no setting of the "
               "descriptor or the classifier is chosen by these scores in the workflow (see docs/design.md for how "
               "the descriptor's defaults were chosen, and on which images)."]

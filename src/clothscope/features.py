@@ -304,13 +304,20 @@ def load_truth(image_path: str | os.PathLike[str]) -> NormalInput:
         return _unusable("failed", f"ground truth of {image_path} unreadable: {type(err).__name__}: {err}", "truth")
 
 
-def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
-    """The fit_normals output of one image: ``state.json`` and ``normal.exr``."""
-    folder = Path(normals_dir)
+def _read_record(path: Path, variant: str) -> dict[str, Any] | NormalInput:
+    """A stage's JSON record, or a ``failed`` input saying why it cannot be read."""
     try:
-        state = json.loads((folder / "state.json").read_text(encoding="utf-8"))
+        return json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as err:
-        return _unusable("failed", f"{folder}/state.json unreadable: {type(err).__name__}: {err}", "")
+        return _unusable("failed", f"{path} unreadable: {type(err).__name__}: {err}", variant)
+
+
+def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
+    """The fit_normals output of one image: ``state.json``, ``normal.exr`` and ``height.exr``."""
+    folder = Path(normals_dir)
+    state = _read_record(folder / "state.json", "")
+    if isinstance(state, NormalInput):
+        return state
     variant = str((state.get("runtime") or {}).get("mitsuba_variant", ""))
     status = state.get("status")
     if status != "fitted":
@@ -334,10 +341,9 @@ def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
 def load_photo(prepared_dir: str | os.PathLike[str]) -> NormalInput:
     """The prepared photo's linear luminance (Rec. 709 weights), for the ``photo`` source; no BSDF."""
     folder = Path(prepared_dir)
-    try:
-        status = json.loads((folder / "status.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError) as err:
-        return _unusable("failed", f"{folder}/status.json unreadable: {type(err).__name__}: {err}", "photo")
+    status = _read_record(folder / "status.json", "photo")
+    if isinstance(status, NormalInput):
+        return status
     if status.get("status") != "accepted":
         return _unusable("skipped", f"photo rejected: {status.get('reason') or status.get('status')}", "photo")
     try:

@@ -17,18 +17,20 @@ Writes ``results/reports/structure_sweep.{csv,md}``. Needs both folders'
 from __future__ import annotations
 
 import argparse
-import itertools
 import warnings
 from pathlib import Path
 
 import pandas as pd
 from harness import ROOT, publish
 
-from clothscope.feature_sets import compare_feature_sets
+from clothscope.feature_sets import FEATURE_SETS, common_images, score_feature_set
 from clothscope.features import load_fitted, load_photo
 from clothscope.structure import StructureSettings, structure_features
 
-GRID = {"border": (0.0, 0.1, 0.2), "peak_threshold": (5.0, 10.0, 20.0), "fundamental_fraction": (0.3, 0.6)}
+#: cells of the sweep: border x peak threshold at the default fundamental fraction, and the other fraction at the default
+CELLS = [*({"border": b, "peak_threshold": t, "fundamental_fraction": 0.3} for b in (0.0, 0.1, 0.2) for t in (5.0, 10.0)),
+         {"border": 0.1, "peak_threshold": 10.0, "fundamental_fraction": 0.6}]
+GRID = tuple(CELLS[0])
 SETS = ("structure_fitted", "structure_brdf_fitted", "structure_photo", "fitted_plus_photo")
 
 
@@ -67,14 +69,15 @@ def main() -> int:
     folders = {"design": ROOT / args.design, "holdout": ROOT / args.holdout}
     data = {name: load_fields(folder) for name, folder in folders.items() if (folder / "features" / "fitted").is_dir()}
     rows = []
-    for values in itertools.product(*GRID.values()):
-        settings = StructureSettings(**dict(zip(GRID, values)))
+    for cell in CELLS:
+        settings = StructureSettings(**cell)
         for name, entry in data.items():
-            report = compare_feature_sets(with_settings(entry, settings)).set_index("feature_set")
-            for feature_set in SETS:
-                rows.append({"set": name, **dict(zip(GRID, values)), "feature_set": feature_set,
-                             "correct": int(report.loc[feature_set, "correct"]), "n": int(report.loc[feature_set, "n"]),
-                             "accuracy": float(report.loc[feature_set, "accuracy"])})
+            tables = with_settings(entry, settings)
+            images = common_images(tables)
+            for feature_set in (s for s in FEATURE_SETS if s.name in SETS):
+                scored = score_feature_set(feature_set, tables, images, "auto")
+                rows.append({"set": name, **cell, "feature_set": feature_set.name, "correct": int(scored["correct"]),
+                             "n": int(scored["n"]), "accuracy": float(scored["accuracy"])})
     table = pd.DataFrame(rows)
     lines = ["# Structure descriptor settings: LOOCV accuracy on the design and held-out sets", "",
              "Each row: one cell of the grid, every feature set's LOOCV accuracy (QDA, same images per set). The cell "
