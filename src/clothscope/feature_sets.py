@@ -110,19 +110,17 @@ def common_images(tables: dict[str, pd.DataFrame]) -> list[str]:
 
 def joined_features(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], images: list[str]) -> tuple[pd.DataFrame, list[str]]:
     """One table of ``images`` with the set's columns, named ``<source>.<column>``, and those names."""
-    frame = pd.DataFrame({"image_id": images})
+    parts = [pd.DataFrame({"image_id": images})]
     columns: list[str] = []
     for source, group in feature_set.parts:
         rows = usable(tables[source]).loc[images]
-        if "fabric_class" not in frame:
-            frame["fabric_class"] = rows["fabric_class"].astype(str).to_numpy()
+        if len(parts) == 1:
+            parts[0]["fabric_class"] = rows["fabric_class"].astype(str).to_numpy()
         groups = AUTO_GROUPS if group == "auto" else (group,)
-        for column in dict.fromkeys(c for g in groups for c in group_columns(g, rows.columns)):
-            name = f"{source}.{column}"
-            if name not in frame:
-                frame[name] = rows[column].to_numpy(dtype=float)
-                columns.append(name)
-    return frame, columns
+        new = [c for c in dict.fromkeys(c for g in groups for c in group_columns(g, rows.columns)) if f"{source}.{c}" not in columns]
+        parts.append(rows[new].astype(float).set_axis([f"{source}.{c}" for c in new], axis=1).reset_index(drop=True))
+        columns += [f"{source}.{c}" for c in new]
+    return pd.concat(parts, axis=1), columns
 
 
 def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], images: list[str],
@@ -230,8 +228,9 @@ def joined_table(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
     frame = first[[c for c in JOINED_PROVENANCE if c in first.columns]].reset_index(drop=True).copy()
     for source in sources:
         table = tables[source].set_index("image_id").reindex(frame["image_id"])
-        for column in dict.fromkeys(c for g in (*AUTO_GROUPS, "structure") for c in group_columns(g, table.columns)):
-            frame[f"{source}.{column}"] = table[column].fillna(0.0).to_numpy(dtype=float)
+        columns = list(dict.fromkeys(c for g in (*AUTO_GROUPS, "structure") for c in group_columns(g, table.columns)))
+        values = table[columns].fillna(0.0).astype(float).set_axis([f"{source}.{c}" for c in columns], axis=1)
+        frame = pd.concat([frame, values.reset_index(drop=True)], axis=1)
         status = table["status"].fillna("missing").to_numpy()
         failing = (frame["status"].to_numpy() == STATUS_OK) & (status != STATUS_OK)
         reasons = table["reason"].fillna(f"no {source} row").astype(str).to_numpy()
