@@ -237,3 +237,19 @@ def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path)
     assert bad["status"] == "failed" and bad["physics"] is None and bad["reason"] == "fit_normals: diverged"
     assert json.loads((tmp_path / "physics" / "q0.json").read_text())["physics"] is None
     assert json.loads((tmp_path / "qda.pkl.meta.json").read_text())["status"] == "not trained"
+
+
+def test_photo_loader_reads_luminance_and_skips_rejected_photos(tmp_path):
+    from clothscope.features import load_photo
+    from clothscope.prepare import PrepareSettings, prepare_image
+
+    prepare_image("a", SYNTHETIC / "canvas" / "canvas_red.png", tmp_path / "a", PrepareSettings(working_resolution=64))
+    photo = load_photo(tmp_path / "a")
+    assert photo.status == "ok" and photo.field.shape == (64, 64) and photo.field is photo.normals
+    assert photo.roughness == 0.0 and np.isfinite(photo.field).all() and photo.field.max() > 0
+    (tmp_path / "b").mkdir()
+    (tmp_path / "b" / "status.json").write_text(json.dumps({"status": "rejected", "reason": "too small"}))
+    rejected = load_photo(tmp_path / "b")
+    assert rejected.status == "skipped" and "too small" in rejected.reason and rejected.field is None
+    broken = load_photo(tmp_path / "missing")
+    assert broken.status == "failed" and "status.json" in broken.reason

@@ -312,6 +312,14 @@ def _read_record(path: Path, variant: str) -> dict[str, Any] | NormalInput:
         return _unusable("failed", f"{path} unreadable: {type(err).__name__}: {err}", variant)
 
 
+def _read_three_channels(path: Path) -> np.ndarray:
+    """The first three channels of an EXR written by this package, as float32 (H, W, 3)."""
+    data = read_exr(path)
+    if data.ndim != 3 or data.shape[-1] < 3:
+        raise ValueError(f"{path.name}: expected 3 channels, got shape {data.shape}")
+    return data[..., :3]
+
+
 def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
     """The fit_normals output of one image: ``state.json``, ``normal.exr`` and ``height.exr``."""
     folder = Path(normals_dir)
@@ -325,10 +333,7 @@ def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
         return _unusable(status, str(state.get("reason") or f"fit status {state.get('status')!r}"), variant)
     try:
         material = state["material"]
-        normals = read_exr(folder / "normal.exr")
-        if normals.ndim != 3 or normals.shape[-1] < 3:
-            raise ValueError(f"normal.exr: expected 3 channels, got shape {normals.shape}")
-        normals = normals[..., :3]
+        normals = _read_three_channels(folder / "normal.exr")
         height = read_exr(folder / "height.exr")[..., 0].astype(np.float64)
         if not (np.all(np.isfinite(normals)) and np.all(np.isfinite(height))):
             raise ValueError("normal.exr or height.exr holds non-finite values")
@@ -347,10 +352,7 @@ def load_photo(prepared_dir: str | os.PathLike[str]) -> NormalInput:
     if status.get("status") != "accepted":
         return _unusable("skipped", f"photo rejected: {status.get('reason') or status.get('status')}", "photo")
     try:
-        rgb = read_exr(folder / "image.exr")
-        if rgb.ndim != 3 or rgb.shape[-1] < 3:
-            raise ValueError(f"image.exr: expected 3 channels, got shape {rgb.shape}")
-        luminance = rgb[..., :3].astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
+        luminance = _read_three_channels(folder / "image.exr").astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
         if not np.all(np.isfinite(luminance)):
             raise ValueError("image.exr holds non-finite values")
         return NormalInput(luminance, luminance, 0.0, 0.0, STATUS_OK, "", "photo", 1.0)
