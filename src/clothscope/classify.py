@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 import sklearn
 from sklearn.discriminant_analysis import QuadraticDiscriminantAnalysis
+from sklearn.model_selection import StratifiedKFold
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils._param_validation import Interval
@@ -355,8 +356,6 @@ INNER_FOLDS = 5
 
 def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto") -> float:
     """Accuracy of :func:`make_qda` by stratified k-fold (k = :data:`INNER_FOLDS` or the smallest class) over labelled rows."""
-    from sklearn.model_selection import StratifiedKFold
-
     labelled, _, notes, _, _, X, y = _labelled_data(table, columns, MIN_LOOCV_PER_CLASS, "choosing a feature set")
     folds = StratifiedKFold(n_splits=min(INNER_FOLDS, int(pd.Series(y).value_counts().min())), shuffle=True, random_state=0)
     correct = 0
@@ -369,11 +368,17 @@ def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "
 def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str = "auto") -> tuple[str, dict[str, float]]:
     """The candidate column set with the highest :func:`inner_accuracy` on ``table`` (ties: the first listed), and every score.
 
+    A single candidate is returned as it is, unscored.
+
     Raises
     ------
     ValueError
-        When no candidate can be scored.
+        When there is no candidate, or none can be scored.
     """
+    if len(candidates) <= 1:
+        if not candidates:
+            raise ValueError("no candidate feature set to choose from")
+        return next(iter(candidates)), {}
     scores: dict[str, float] = {}
     problems = []
     for name, columns in candidates.items():
@@ -422,6 +427,8 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         than two classes with enough images.
     """
     reg = _check_reg(reg)
+    if select_from and len(select_from) == 1:  # nothing to choose: an ordinary LOOCV of that set
+        feature_columns, select_from = next(iter(select_from.values())), None
     if select_from:
         feature_columns = list(dict.fromkeys(c for columns in select_from.values() for c in columns))
     labelled, excluded, notes, used, dropped, X, y = _labelled_data(table, feature_columns, MIN_LOOCV_PER_CLASS,

@@ -20,8 +20,8 @@ import pandas as pd
 
 from . import __version__
 from .atomic import write_json, write_text, write_with
-from .classify import POSTERIOR_PREFIX, loocv, metadata_path, predict, save_model, split_labelled, train_model, write_reports
-from .classify import choose_columns
+from .classify import (POSTERIOR_PREFIX, choose_columns, loocv, metadata_path, predict, save_model, split_labelled,
+                       train_model, write_reports)
 from .feature_sets import classifier_candidates, inverse_rendering_gain, joined_table
 from .features import STATUS_OK, read_table
 from .physics import load_physics_table, physics_for
@@ -98,12 +98,11 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     provenance = _provenance(table)
     problems = []
     try:
-        single = next(iter(candidates.values())) if len(candidates) == 1 else []
-        result = loocv(ok, single, reg, select_from=candidates if len(candidates) > 1 else None)
+        result = loocv(ok, [], reg, select_from=candidates)
     except ValueError as err:  # too few labelled classes or images: no scores, the run goes on
         result, problems = None, [f"LOOCV not run: {str(err).splitlines()[0]}"]
     try:
-        chosen = choose_columns(ok, candidates, reg)[0] if len(candidates) > 1 else next(iter(candidates))
+        chosen = choose_columns(ok, candidates, reg)[0]
         model = train_model(ok, candidates[chosen], reg)
     except ValueError as err:
         model = None

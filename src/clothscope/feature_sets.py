@@ -25,9 +25,6 @@ from .structure import LBP_COLUMNS, STRUCTURE_COLUMNS
 BRDF_COLUMNS = ("roughness", "specular_norm")
 #: Column groups the ``auto`` feature set chooses from, inside each LOOCV fold (ties go to the first).
 AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp")
-#: The classifier of record's feature sets (``classify.feature_set``): a group of the maps' own table, the
-#: photo's structure descriptor, both, or ``auto`` (chosen inside each fold among all of these).
-CLASSIFIER_SETS = (*AUTO_GROUPS, "photo_structure", "plus_photo")
 #: Provenance columns a joined table keeps from its first source.
 JOINED_PROVENANCE = ("image_id", "fabric_class", "status", "reason", "normal_source", "mitsuba_variant", "config_hash")
 
@@ -51,10 +48,17 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
     return [c for c in names if c in wanted]
 
 
-def auto_candidates(table_columns: list[str] | pd.Index, prefix: str = "") -> dict[str, list[str]]:
-    """The column sets the ``auto`` feature set chooses from (:data:`AUTO_GROUPS`), optionally prefixed."""
-    stripped = [c[len(prefix):] for c in table_columns if c.startswith(prefix)] if prefix else list(table_columns)
-    return {group: [prefix + c for c in group_columns(group, stripped)] for group in AUTO_GROUPS}
+def source_columns(columns: list[str] | pd.Index, source: str, group: str) -> list[str]:
+    """A group's columns of one source in a joined table (``<source>.<column>``); ``auto``: every AUTO_GROUPS column."""
+    prefix = f"{source}."
+    own = [c[len(prefix):] for c in columns if c.startswith(prefix)]
+    groups = AUTO_GROUPS if group == "auto" else (group,)
+    return [prefix + c for c in dict.fromkeys(c for g in groups for c in group_columns(g, own))]
+
+
+def auto_candidates(columns: list[str] | pd.Index, source: str) -> dict[str, list[str]]:
+    """The column sets of one source that the ``auto`` feature set chooses from (:data:`AUTO_GROUPS`)."""
+    return {group: source_columns(columns, source, group) for group in AUTO_GROUPS}
 
 
 @dataclass(frozen=True)
@@ -109,39 +113,34 @@ def common_images(tables: dict[str, pd.DataFrame]) -> list[str]:
 
 
 def joined_features(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], images: list[str]) -> tuple[pd.DataFrame, list[str]]:
-    """One table of ``images`` with the set's columns, named ``<source>.<column>``, and those names."""
-    parts = [pd.DataFrame({"image_id": images})]
-    columns: list[str] = []
-    for source, group in feature_set.parts:
-        rows = usable(tables[source]).loc[images]
-        if len(parts) == 1:
-            parts[0]["fabric_class"] = rows["fabric_class"].astype(str).to_numpy()
-        groups = AUTO_GROUPS if group == "auto" else (group,)
-        new = [c for c in dict.fromkeys(c for g in groups for c in group_columns(g, rows.columns)) if f"{source}.{c}" not in columns]
-        parts.append(rows[new].astype(float).set_axis([f"{source}.{c}" for c in new], axis=1).reset_index(drop=True))
-        columns += [f"{source}.{c}" for c in new]
-    return pd.concat(parts, axis=1), columns
+    """The :func:`joined_table` rows of ``images`` and the set's columns (``<source>.<column>``)."""
+    frame = joined_table({source: tables[source] for source in feature_set.sources})
+    frame = frame.set_index("image_id").loc[images].reset_index()
+    columns = list(dict.fromkeys(c for source, group in feature_set.parts for c in source_columns(frame.columns, source, group)))
+    return frame, columns
+
+
+def _unscored_row(feature_set: FeatureSet, reason: str) -> dict[str, object]:
+    """A report row for a set that could not be scored, saying why."""
+    return {"feature_set": feature_set.name, "description": feature_set.description,
+            "sources": "+".join(feature_set.sources), "photo_only": feature_set.photo_only, "n_features": 0, "n": 0,
+            "correct": 0, "accuracy": 0.0, "wilson_low": 0.0, "wilson_high": 0.0, "chance": 0.0,
+            "status": "not scored", "reason": " ".join(reason.split())}
 
 
 def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], images: list[str],
                       reg: float | str) -> dict[str, object]:
     """LOOCV of one feature set on ``images``: a report row (``status`` says why when not scored)."""
-    row: dict[str, object] = {"feature_set": feature_set.name, "description": feature_set.description,
-                              "sources": "+".join(feature_set.sources), "photo_only": feature_set.photo_only,
-                              "n_features": 0, "n": 0, "correct": 0, "accuracy": 0.0, "wilson_low": 0.0,
-                              "wilson_high": 0.0, "chance": 0.0, "status": "ok", "reason": ""}
     try:
         frame, columns = joined_features(feature_set, tables, images)
         auto = [source for source, group in feature_set.parts if group == "auto"]
-        select_from = auto_candidates(columns, f"{auto[0]}.") if auto else None
-        result = loocv(frame, columns, reg, select_from=select_from)
+        result = loocv(frame, columns, reg, select_from=auto_candidates(columns, auto[0]) if auto else None)
     except (KeyError, ValueError) as err:
-        row.update(status="not scored", reason=" ".join(str(err).split()))
-        return row
+        return _unscored_row(feature_set, str(err))
     chosen = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
-    row.update(reason=f"folds chose: {chosen}" if chosen else "", n_features=len(result.feature_columns), n=result.n, correct=result.correct, accuracy=result.accuracy,
-               wilson_low=result.wilson_low, wilson_high=result.wilson_high, chance=result.chance_uniform)
-    return row
+    return {**_unscored_row(feature_set, f"folds chose: {chosen}" if chosen else ""), "status": "ok",
+            "n_features": len(result.feature_columns), "n": result.n, "correct": result.correct, "accuracy": result.accuracy,
+            "wilson_low": result.wilson_low, "wilson_high": result.wilson_high, "chance": result.chance_uniform}
 
 
 def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str = "auto") -> pd.DataFrame:
@@ -157,8 +156,7 @@ def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str = "au
         if not all(source in tables for source in feature_set.sources):
             continue
         if "truth" in feature_set.sources and not set(images) <= set(map(str, usable(tables["truth"]).index)):
-            rows.append(score_feature_set(FeatureSet(feature_set.name, feature_set.description, ()), {}, [], reg)
-                        | {"sources": "truth", "status": "not scored", "reason": "some images have no ground truth"})
+            rows.append(_unscored_row(feature_set, "some images have no ground truth"))
             continue
         rows.append(score_feature_set(feature_set, tables, images, reg))
     return pd.DataFrame(rows)
@@ -228,7 +226,7 @@ def joined_table(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
     frame = first[[c for c in JOINED_PROVENANCE if c in first.columns]].reset_index(drop=True).copy()
     for source in sources:
         table = tables[source].set_index("image_id").reindex(frame["image_id"])
-        columns = list(dict.fromkeys(c for g in (*AUTO_GROUPS, "structure") for c in group_columns(g, table.columns)))
+        columns = list(dict.fromkeys(c for g in AUTO_GROUPS for c in group_columns(g, table.columns)))
         values = table[columns].fillna(0.0).astype(float).set_axis([f"{source}.{c}" for c in columns], axis=1)
         frame = pd.concat([frame, values.reset_index(drop=True)], axis=1)
         status = table["status"].fillna("missing").to_numpy()
@@ -245,16 +243,10 @@ def classifier_candidates(feature_set: str, maps: str, columns: list[str] | pd.I
     ``maps`` is the classifier's own source (``fitted``, ``truth`` or ``photo``);
     the photo sets need a ``photo`` source beside it.
     """
-    names = list(columns)
-
-    def of(source: str, group: str) -> list[str]:
-        prefix = f"{source}."
-        return [prefix + c for c in group_columns(group, [n[len(prefix):] for n in names if n.startswith(prefix)])]
-
-    sets = {group: of(maps, group) for group in AUTO_GROUPS}
-    if maps != "photo" and any(n.startswith("photo.") for n in names):
-        sets["photo_structure"] = of("photo", "structure")
-        sets["plus_photo"] = of(maps, "structure_brdf") + of("photo", "structure")
+    sets = auto_candidates(columns, maps)
+    if maps != "photo" and any(str(n).startswith("photo.") for n in columns):
+        sets["photo_structure"] = source_columns(columns, "photo", "structure")
+        sets["plus_photo"] = sets["structure_brdf"] + sets["photo_structure"]
     if feature_set == "auto":
         return sets
     if feature_set not in sets:

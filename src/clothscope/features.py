@@ -64,6 +64,7 @@ import pyarrow.parquet as pq
 
 from . import __version__
 from .atomic import write_with
+from .fit.light import luminance as photo_luminance
 from .imageio import read_exr
 from .spectrum import SpectrumResult, SpectrumSettings, analyse_normal_map, extra_features, plot_analysis
 from .structure import LBP_COLUMNS, STRUCTURE_COLUMNS, StructureSettings, lbp_baseline, structure_features
@@ -352,7 +353,7 @@ def load_photo(prepared_dir: str | os.PathLike[str]) -> NormalInput:
     if status.get("status") != "accepted":
         return _unusable("skipped", f"photo rejected: {status.get('reason') or status.get('status')}", "photo")
     try:
-        luminance = _read_three_channels(folder / "image.exr").astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
+        luminance = photo_luminance(_read_three_channels(folder / "image.exr").astype(np.float64))
         if not np.all(np.isfinite(luminance)):
             raise ValueError("image.exr holds non-finite values")
         return NormalInput(luminance, luminance, 0.0, 0.0, STATUS_OK, "", "photo", 1.0)

@@ -49,6 +49,8 @@ import numpy as np
 from scipy import ndimage
 from skimage.feature import local_binary_pattern
 
+from .spectrum import centred_spectrum, radius_grid, upper_half_plane
+
 #: Ring centres of the radial profile, in units of the fundamental frequency.
 PROFILE_RHO = np.geomspace(0.35, 3.2, 10)
 #: Period (pixels) the field is resampled to before the local texture statistics.
@@ -142,12 +144,8 @@ def analysis_field(field: np.ndarray, border: float) -> np.ndarray:
 
 def spectrum(field: np.ndarray) -> Spectrum:
     """Hann-windowed, centred power spectrum; smoothed 3x3 and divided by its ring medians."""
-    n = field.shape[0]
-    window = np.hanning(n)
-    power = np.abs(np.fft.fftshift(np.fft.fft2((field - field.mean()) * np.outer(window, window)))) ** 2
-    centre = n // 2
-    dy, dx = np.mgrid[:n, :n] - centre
-    radius = np.hypot(dy, dx)
+    power = np.abs(centred_spectrum(field, "hann")) ** 2
+    dy, dx, radius = radius_grid(field.shape[0])
     smoothed = ndimage.uniform_filter(power, 3, mode="wrap")
     rings = np.rint(radius).astype(int)
     medians = ndimage.median(smoothed, labels=rings + 1, index=np.arange(1, rings.max() + 2))
@@ -156,13 +154,9 @@ def spectrum(field: np.ndarray) -> Spectrum:
     return Spectrum(power, smoothed, relative, radius, dy, dx)
 
 
-def _half_plane(s: Spectrum) -> np.ndarray:
-    return (s.dy > 0) | ((s.dy == 0) & (s.dx > 0))
-
-
 def find_lattice(s: Spectrum, settings: StructureSettings) -> Lattice:
     """Ring-relative peaks of one half-plane and the fundamental radius ``f0``."""
-    band = (s.radius >= MIN_RADIUS_BINS) & (s.radius <= 0.45 * s.size) & _half_plane(s)
+    band = (s.radius >= MIN_RADIUS_BINS) & (s.radius <= 0.45 * s.size) & upper_half_plane(s.dy, s.dx)
     local_max = s.smoothed == ndimage.maximum_filter(s.smoothed, 5, mode="wrap")
     idx = np.flatnonzero(local_max & band & (s.relative > settings.peak_threshold))
     peaks = idx[np.argsort(-s.smoothed.flat[idx], kind="stable")]
@@ -200,10 +194,18 @@ def radial_profile(s: Spectrum, f0: float) -> np.ndarray:
     return np.log10(np.asarray(shares) + 1e-6)
 
 
+def _folded(delta: np.ndarray | float) -> np.ndarray | float:
+    """Angle between undirected directions (radians), folded to [0, pi/2]."""
+    return np.abs((delta + np.pi / 2) % np.pi - np.pi / 2)
+
+
+def _direction(s: Spectrum, index: int) -> float:
+    return float(np.arctan2(s.dy.flat[index], s.dx.flat[index]))
+
+
 def _angle_between(s: Spectrum, a: int, b: int) -> float:
     """Angle between two peaks' directions, folded to [0, pi/2]."""
-    ta, tb = np.arctan2(s.dy.flat[a], s.dx.flat[a]), np.arctan2(s.dy.flat[b], s.dx.flat[b])
-    return float(abs((tb - ta + np.pi / 2) % np.pi - np.pi / 2))
+    return float(_folded(_direction(s, b) - _direction(s, a)))
 
 
 def lattice_features(s: Spectrum, lattice: Lattice) -> dict[str, float]:
@@ -225,7 +227,7 @@ def lattice_features(s: Spectrum, lattice: Lattice) -> dict[str, float]:
     mask = np.zeros(s.power.shape, dtype=bool)
     mask.flat[within] = True
     mask = ndimage.binary_dilation(mask, iterations=1)
-    band = (s.radius >= 0.3 * lattice.f0) & (s.radius <= 3.2 * lattice.f0) & _half_plane(s)
+    band = (s.radius >= 0.3 * lattice.f0) & (s.radius <= 3.2 * lattice.f0) & upper_half_plane(s.dy, s.dx)
     total = float(s.power[band].sum())
     out["s_peak_fraction"] = float(s.power[mask & band].sum() / total) if total > 0 else 0.0
     return out
@@ -245,12 +247,11 @@ def sector_shares(s: Spectrum, lattice: Lattice) -> dict[str, float]:
     if total <= 0:
         return {"s_sector_parallel": 0.0, "s_sector_diagonal": 0.0, "s_sector_across": 0.0}
     if lattice.found:
-        first = int(lattice.peaks[0])
-        reference = float(np.arctan2(s.dy.flat[first], s.dx.flat[first]))
+        reference = _direction(s, int(lattice.peaks[0]))
     else:
         sectors = np.bincount(((angles % np.pi) / np.pi * 36).astype(int) % 36, weights=power, minlength=36)
         reference = (int(np.argmax(sectors)) + 0.5) * np.pi / 36
-    folded = np.abs((angles - reference + np.pi / 2) % np.pi - np.pi / 2)
+    folded = _folded(angles - reference)
     return {"s_sector_parallel": float(power[folded < np.radians(22.5)].sum() / total),
             "s_sector_diagonal": float(power[(folded >= np.radians(22.5)) & (folded <= np.radians(67.5))].sum() / total),
             "s_sector_across": float(power[folded > np.radians(67.5)].sum() / total)}

@@ -30,7 +30,7 @@ import pandas as pd
 from harness import ROOT, publish, snakemake, write_sheet
 
 from clothscope.classify import make_qda
-from clothscope.feature_sets import FEATURE_SETS, joined_features, usable
+from clothscope.feature_sets import FEATURE_SETS, common_images, joined_features
 from clothscope.imageio import decode_image, linear_to_srgb, write_png
 from clothscope.invariance import PHOTO_TRANSFORMS
 
@@ -59,11 +59,10 @@ def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], tr
                         images: list[str], transform: str) -> dict[str, object]:
     """Train on all other originals, predict each chosen original and its transformed photo; count changes."""
     spec = next(s for s in FEATURE_SETS if s.name == feature_set)
-    all_ids = [str(i) for i in usable(originals[spec.sources[0]]).index
-               if all(str(i) in set(map(str, usable(originals[s]).index)) for s in spec.sources)]
-    frame, columns = joined_features(spec, originals, all_ids)
+    frame, columns = joined_features(spec, originals, common_images({s: originals[s] for s in spec.sources}))
     t_ids = [f"{i}__{transform}" for i in images]
-    ok = [t for t in t_ids if all(t in set(map(str, usable(transformed[s]).index)) for s in spec.sources)]
+    usable_now = set(common_images({s: transformed[s] for s in spec.sources}))
+    ok = [t for t in t_ids if t in usable_now]
     t_frame, _ = joined_features(spec, transformed, ok)
     X, y = frame[columns].to_numpy(float), frame["fabric_class"].to_numpy(object)
     changed, wrong = 0, 0

@@ -90,7 +90,7 @@ def normal_source_inputs(source, image):
         return {"prepared": os.path.join(RESULTS, "prepared", image)}
     path = SAMPLES.loc[image, "path"]
     truth = truth_paths(Path(path))
-    return {"image": path, **{key: str(truth[key]) for key in ("normal", "json") if truth[key].is_file()}}
+    return {"image": path, **{key: str(truth[key]) for key in ("normal", "height", "json") if truth[key].is_file()}}
 
 
 def feature_inputs(wildcards):
