@@ -71,6 +71,57 @@ def test_make_qda_is_standardised_eigen_qda():
     for bad in ("ledoit", 1.5, -0.1, True):
         with pytest.raises(ValueError, match="reg must be"):
             make_qda(bad)
+    assert [name for name, _ in make_qda(subspace="discriminant").steps] == ["scale", "project", "qda"]
+    with pytest.raises(ValueError, match="subspace must be"):
+        make_qda(subspace="pca")
+
+
+def noisy_table(per_class: int, n_noise: int, seed: int) -> tuple[pd.DataFrame, list[str]]:
+    """Four classes apart along two informative features, buried among ``n_noise`` pure-noise features."""
+    rng = np.random.default_rng(seed)
+    centres = {"a": (0, 0), "b": (4, 0), "c": (0, 4), "d": (4, 4)}
+    rows = []
+    for name, centre in centres.items():
+        for i in range(per_class):
+            values = [*(np.asarray(centre) + rng.normal(size=2)), *rng.normal(size=n_noise)]
+            rows.append({"image_id": f"{name}_{i}", "fabric_class": name, **{f"f{j}": v for j, v in enumerate(values)}})
+    return pd.DataFrame(rows), [f"f{j}" for j in range(2 + n_noise)]
+
+
+def test_discriminant_subspace_holds_up_where_plain_qda_drowns_in_features():
+    """Six images per class, 16 features of which 2 carry the class: the projection keeps QDA well posed."""
+    scores = {"none": [], "discriminant": []}
+    for seed in range(5, 10):
+        table, features = noisy_table(6, 14, seed=seed)
+        for subspace, accuracies in scores.items():
+            result = loocv(table, features, "auto", subspace=subspace)
+            assert result.subspace == subspace
+            proba = posterior_matrix(result.predictions)
+            assert np.isfinite(proba).all() and np.allclose(proba.sum(axis=1), 1.0)
+            accuracies.append(result.accuracy)
+    assert np.mean(scores["discriminant"]) >= 0.7
+    assert np.mean(scores["discriminant"]) >= np.mean(scores["none"]) + 0.1
+
+
+def test_discriminant_subspace_posteriors_come_from_a_model_without_the_image():
+    table, features = noisy_table(4, 6, seed=6)
+    result = loocv(table, features, "auto", subspace="discriminant")
+    X, y = table[features].to_numpy(), table["fabric_class"].to_numpy()
+    for i in (0, 9):
+        keep = np.arange(len(table)) != i
+        expected = make_qda("auto", subspace="discriminant").fit(X[keep], y[keep]).predict_proba(X[i : i + 1])[0]
+        row = result.predictions.set_index("image_id").loc[table["image_id"][i]]
+        np.testing.assert_allclose(row[["p_a", "p_b", "p_c", "p_d"]].to_numpy(dtype=float), expected, rtol=1e-10)
+
+
+def test_discriminant_subspace_small_classes_and_constant_columns_stay_finite():
+    features = [f"f{j}" for j in range(10)]
+    table = gaussian_table({"a": 2, "b": 2, "c": 3}, n_features=10, seed=2)
+    table["f9"] = 1.0
+    model = train_model(table, features, "auto", subspace="discriminant")
+    out = predict(model, gaussian_table({"a": 1, "b": 1}, n_features=10, seed=9))
+    proba = posterior_matrix(out)
+    assert np.isfinite(proba).all() and np.allclose(proba.sum(axis=1), 1.0)
 
 
 def test_loocv_separable_gaussians_high_accuracy():

@@ -155,7 +155,7 @@ def test_feature_sets_compare_on_the_same_images_and_say_what_the_fit_bought():
     rng = np.random.default_rng(0)
     tables = {"fitted": _table("fitted", rng, True, missing=("a0",)), "photo": _table("photo", rng, False),
               "truth": _table("truth", rng, True)}
-    report = compare_feature_sets(tables)
+    report = compare_feature_sets(tables, "auto", "discriminant")
     assert set(report["feature_set"]) == {s.name for s in FEATURE_SETS}
     scored = report[report["status"] == "ok"]
     assert (scored["n"] == 17).all()  # a0 is unusable in the fitted table, so no set sees it
@@ -170,7 +170,7 @@ def test_truth_sets_are_not_scored_when_some_images_lack_ground_truth():
     rng = np.random.default_rng(1)
     tables = {"fitted": _table("fitted", rng, True), "photo": _table("photo", rng, False),
               "truth": _table("truth", rng, True, missing=("b2",))}
-    report = compare_feature_sets(tables).set_index("feature_set")
+    report = compare_feature_sets(tables, "auto", "none").set_index("feature_set")
     assert report.loc["paper_truth", "status"] == "not scored"
     assert "ground truth" in report.loc["paper_truth", "reason"]
 
@@ -204,7 +204,7 @@ def test_joined_table_marks_an_image_unusable_when_any_source_fails():
     assert row["status"] == "missing" and row["reason"].startswith("photo:")
     assert "fitted.s_prof_1" in joined and "photo.s_prof_1" in joined
     sets = classifier_candidates("auto", "fitted", joined.columns)
-    assert set(sets) == {"structure_brdf", "profile_brdf", "paper", "lbp", "photo_structure", "plus_photo"}
+    assert set(sets) == {"structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf", "photo_structure", "plus_photo"}
     assert sets["plus_photo"] == sets["structure_brdf"] + sets["photo_structure"]
     with pytest.raises(ValueError, match="needs sources"):
         classifier_candidates("photo_structure", "photo", joined.columns)

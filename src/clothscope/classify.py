@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import sklearn
-from sklearn.discriminant_analysis import QuadraticDiscriminantAnalysis
+from sklearn.discriminant_analysis import LinearDiscriminantAnalysis, QuadraticDiscriminantAnalysis
 from sklearn.model_selection import StratifiedKFold
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
@@ -45,6 +45,9 @@ MIN_TRAIN_PER_CLASS = 2
 MIN_LOOCV_PER_CLASS = 3
 #: Prefix of the posterior columns in prediction tables.
 POSTERIOR_PREFIX = "p_"
+#: Feature spaces QDA can be fitted in: the standardised features as they are
+#: (the paper's), or their discriminant subspace (see :func:`make_qda`).
+SUBSPACES = ("none", "discriminant")
 #: Pickle protocol and payload marker of saved models.
 _MODEL_FORMAT = "clothscope-qda-model/1"
 
@@ -124,6 +127,7 @@ class LoocvResult:
     feature_columns: list[str]
     dropped_columns: list[str]
     reg: str | float
+    subspace: str
     predictions: pd.DataFrame
     correct: int
     n: int
@@ -149,6 +153,7 @@ class QdaModel:
     feature_columns: list[str]
     dropped_columns: list[str]
     reg: str | float
+    subspace: str
     class_counts: dict[str, int]
     excluded: dict[str, list[str]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
@@ -197,8 +202,14 @@ def _check_reg(reg: float | str) -> float | str:
     return float(reg)
 
 
-def make_qda(reg: float | str = "auto", *, var_floor: float = VAR_FLOOR) -> Pipeline:
-    """The classifier: standardise features, then shrunk QDA with floored class covariances.
+def _check_subspace(subspace: str) -> str:
+    if subspace not in SUBSPACES:
+        raise ValueError(f"subspace must be one of {', '.join(SUBSPACES)}, got {subspace!r}")
+    return subspace
+
+
+def make_qda(reg: float | str = "auto", *, var_floor: float = VAR_FLOOR, subspace: str = "none") -> Pipeline:
+    """The classifier: standardise features, optionally project them, then shrunk QDA with floored class covariances.
 
     Parameters
     ----------
@@ -206,19 +217,32 @@ def make_qda(reg: float | str = "auto", *, var_floor: float = VAR_FLOOR) -> Pipe
         Covariance shrinkage: ``"auto"`` (Ledoit-Wolf) or a float in [0, 1].
     var_floor
         Lower bound of each class-covariance eigenvalue, in standardised units.
+    subspace
+        ``"none"``: QDA on the standardised features (the paper's classifier).
+        ``"discriminant"``: QDA on the at most ``n_classes - 1`` Fisher
+        discriminant directions of the training images (shrunk LDA,
+        Ledoit-Wolf), fitted inside the pipeline so that a LOOCV fold never
+        sees its held-out image. With a handful of images per class and tens
+        of features, each class covariance is then estimated in a few
+        dimensions instead of tens.
 
     Returns
     -------
     sklearn.pipeline.Pipeline
-        Steps ``scale`` (StandardScaler) and ``qda`` (:class:`FlooredQDA`,
+        Steps ``scale`` (StandardScaler), ``project`` (with
+        ``subspace="discriminant"``) and ``qda`` (:class:`FlooredQDA`,
         ``solver="eigen"``, ``shrinkage=reg``, ``priors=None``: class
         proportions of the training data).
     """
     reg = _check_reg(reg)
+    subspace = _check_subspace(subspace)
     if not (math.isfinite(var_floor) and var_floor > 0):
         raise ValueError(f"var_floor must be a finite number > 0, got {var_floor}")
     qda = FlooredQDA(solver="eigen", shrinkage=reg, priors=None, var_floor=var_floor, tol=min(1e-4, var_floor / 2))
-    return Pipeline([("scale", StandardScaler()), ("qda", qda)])
+    steps: list[tuple[str, Any]] = [("scale", StandardScaler())]
+    if subspace == "discriminant":
+        steps.append(("project", LinearDiscriminantAnalysis(solver="eigen", shrinkage="auto")))
+    return Pipeline([*steps, ("qda", qda)])
 
 
 def label_mask(table: pd.DataFrame) -> pd.Series:
@@ -303,11 +327,11 @@ def _select_classes(labelled: pd.DataFrame, minimum: int, purpose: str) -> tuple
     return kept, excluded, notes
 
 
-def _fit(reg: float | str, X: np.ndarray, y: np.ndarray, notes: list[str]) -> Pipeline:
+def _fit(reg: float | str, X: np.ndarray, y: np.ndarray, notes: list[str], subspace: str = "none") -> Pipeline:
     """Fit :func:`make_qda`; warnings become notes (each once)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model = make_qda(reg).fit(X, y)
+        model = make_qda(reg, subspace=subspace).fit(X, y)
     for w in caught:
         message = f"scikit-learn warning: {w.message}"
         if message not in notes:
@@ -354,18 +378,19 @@ def _labelled_data(table: pd.DataFrame, feature_columns: list[str], min_per_clas
 INNER_FOLDS = 5
 
 
-def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto") -> float:
+def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto", subspace: str = "none") -> float:
     """Accuracy of :func:`make_qda` by stratified k-fold (k = :data:`INNER_FOLDS` or the smallest class) over labelled rows."""
     labelled, _, notes, _, _, X, y = _labelled_data(table, columns, MIN_LOOCV_PER_CLASS, "choosing a feature set")
     folds = StratifiedKFold(n_splits=min(INNER_FOLDS, int(pd.Series(y).value_counts().min())), shuffle=True, random_state=0)
     correct = 0
     for train, test in folds.split(X, y):
-        model = _fit(reg, X[train], y[train], notes)
+        model = _fit(reg, X[train], y[train], notes, subspace)
         correct += int((model.predict(X[test]) == y[test]).sum())
     return correct / len(y)
 
 
-def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str = "auto") -> tuple[str, dict[str, float]]:
+def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str = "auto",
+                   subspace: str = "none") -> tuple[str, dict[str, float]]:
     """The candidate column set with the highest :func:`inner_accuracy` on ``table`` (ties: the first listed), and every score.
 
     A single candidate is returned as it is, unscored.
@@ -383,7 +408,7 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
     problems = []
     for name, columns in candidates.items():
         try:
-            scores[name] = inner_accuracy(table, columns, reg)
+            scores[name] = inner_accuracy(table, columns, reg, subspace)
         except ValueError as err:
             problems.append(f"{name}: {str(err).splitlines()[0]}")
     if not scores:
@@ -393,7 +418,7 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
 
 
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
-          select_from: dict[str, list[str]] | None = None) -> LoocvResult:
+          select_from: dict[str, list[str]] | None = None, subspace: str = "none") -> LoocvResult:
     """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
 
     Each labelled image is classified by a model fitted (scaler included) on
@@ -415,6 +440,8 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         :func:`choose_columns` picks by an inner cross-validation of its
         *training* images only, so the held-out image never takes part in
         the choice (``selected`` counts the picks).
+    subspace
+        Feature space of the QDA (:func:`make_qda`).
 
     Returns
     -------
@@ -426,7 +453,7 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         Missing or non-numeric columns, non-finite labelled features, or fewer
         than two classes with enough images.
     """
-    reg = _check_reg(reg)
+    reg, subspace = _check_reg(reg), _check_subspace(subspace)
     if select_from and len(select_from) == 1:  # nothing to choose: an ordinary LOOCV of that set
         feature_columns, select_from = next(iter(select_from.values())), None
     if select_from:
@@ -443,14 +470,14 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         train = np.arange(n) != i
         if select_from:
             rows = labelled.iloc[np.flatnonzero(train)]
-            name, _ = choose_columns(rows, select_from, reg)
+            name, _ = choose_columns(rows, select_from, reg, subspace)
             selected[name] = selected.get(name, 0) + 1
-            model = train_model(rows, select_from[name], reg)
+            model = train_model(rows, select_from[name], reg, subspace)
             if model.classes != classes:
                 raise ValueError(f"fold {ids[i]}: fitted classes {model.classes} differ from {classes}")
             proba[i] = predict(model, labelled.iloc[[i]])[[posterior_column(c) for c in classes]].to_numpy(float)[0]
             continue
-        model = _fit(reg, X[train], y[train], notes)
+        model = _fit(reg, X[train], y[train], notes, subspace)
         if list(model.classes_) != classes:
             raise ValueError(f"fold {ids[i]}: fitted classes {list(model.classes_)} differ from {classes}")
         proba[i] = _posteriors(model, X[i : i + 1], [ids[i]])[0]
@@ -472,6 +499,7 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         feature_columns=used,
         dropped_columns=dropped,
         reg=reg,
+        subspace=subspace,
         predictions=predictions,
         correct=correct,
         n=n,
@@ -532,7 +560,7 @@ def per_class_metrics(confusion: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]
 # --------------------------------------------------------------------------- final model
 
 
-def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto") -> QdaModel:
+def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto", subspace: str = "none") -> QdaModel:
     """Fit :func:`make_qda` on every labelled row (queries are ignored).
 
     Classes with fewer than :data:`MIN_TRAIN_PER_CLASS` labelled images are
@@ -543,10 +571,10 @@ def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | st
     -------
     QdaModel
     """
-    reg = _check_reg(reg)
+    reg, subspace = _check_reg(reg), _check_subspace(subspace)
     labelled, excluded, notes, used, dropped, X, y = _labelled_data(table, feature_columns, MIN_TRAIN_PER_CLASS,
                                                                      "training QDA")
-    pipeline = _fit(reg, X, y, notes)
+    pipeline = _fit(reg, X, y, notes, subspace)
     counts = pd.Series(y).value_counts()
     return QdaModel(
         pipeline=pipeline,
@@ -554,6 +582,7 @@ def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | st
         feature_columns=used,
         dropped_columns=dropped,
         reg=reg,
+        subspace=subspace,
         class_counts={str(c): int(counts[c]) for c in pipeline.classes_},
         excluded=excluded,
         notes=notes,
@@ -604,6 +633,7 @@ def model_metadata(model: QdaModel) -> dict[str, Any]:
         "class_counts": dict(model.class_counts),
         "excluded_classes": {c: list(ids) for c, ids in model.excluded.items()},
         "reg": model.reg,
+        "subspace": model.subspace,
         "var_floor": float(model.pipeline.named_steps["qda"].var_floor),
         "notes": list(model.notes),
         "sklearn_version": sklearn.__version__,
@@ -761,7 +791,9 @@ def write_reports(
         "excluded_classes": {c: list(ids) for c, ids in result.excluded.items()},
         "n_queries": int((predictions["split"] == "query").sum()),
         "reg": result.reg,
-        "method": "leave-one-out cross-validation of QDA (StandardScaler + shrunk, floored class covariances)",
+        "subspace": result.subspace,
+        "method": "leave-one-out cross-validation of QDA (StandardScaler + shrunk, floored class covariances"
+                  + (", in the discriminant subspace of each fold's training images)" if result.subspace == "discriminant" else ")"),
         "notes": list(result.notes),
         "selected_feature_sets": dict(result.selected),
     }

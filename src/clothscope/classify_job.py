@@ -59,7 +59,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
                  reports_dir: str | os.PathLike[str], model_path: str | os.PathLike[str],
                  physics_paths: dict[str, str], log: Any = None, feature_set: str = "auto",
                  comparison_csv: str | os.PathLike[str] | None = None,
-                 photo_table_path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+                 photo_table_path: str | os.PathLike[str] | None = None, subspace: str = "none") -> dict[str, Any]:
     """Run the classifier stage for one normal source.
 
     Parameters
@@ -86,6 +86,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         ``feature_sets.csv``, for the line on what the fit bought over the photo alone (``summary.md``).
     photo_table_path
         The ``photo`` feature table, joined to ``table_path`` by image id (the photo's feature sets need it).
+    subspace
+        Feature space of the QDA (:func:`clothscope.classify.make_qda`).
     """
     tables = {source: read_table(table_path)}
     if photo_table_path and source != "photo":
@@ -98,12 +100,12 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     provenance = _provenance(table)
     problems = []
     try:
-        result = loocv(ok, [], reg, select_from=candidates)
+        result = loocv(ok, [], reg, select_from=candidates, subspace=subspace)
     except ValueError as err:  # too few labelled classes or images: no scores, the run goes on
         result, problems = None, [f"LOOCV not run: {str(err).splitlines()[0]}"]
     try:
-        chosen = choose_columns(ok, candidates, reg)[0]
-        model = train_model(ok, candidates[chosen], reg)
+        chosen = choose_columns(ok, candidates, reg, subspace)[0]
+        model = train_model(ok, candidates[chosen], reg, subspace)
     except ValueError as err:
         model = None
         problems.append(f"no model trained: {str(err).splitlines()[0]}")

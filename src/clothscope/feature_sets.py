@@ -24,7 +24,7 @@ from .structure import LBP_COLUMNS, STRUCTURE_COLUMNS
 #: Column groups of a feature table.
 BRDF_COLUMNS = ("roughness", "specular_norm")
 #: Column groups the ``auto`` feature set chooses from, inside each LOOCV fold (ties go to the first).
-AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp")
+AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf")
 #: Provenance columns a joined table keeps from its first source.
 JOINED_PROVENANCE = ("image_id", "fabric_class", "status", "reason", "normal_source", "mitsuba_variant", "config_hash")
 
@@ -35,14 +35,16 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
     ``paper``: roughness, specular_norm, ``r_*``, ``z_*``, ``n_peaks`` and any
     ``x_*`` extras; ``structure``: ``s_*``; ``brdf``: roughness and
     specular_norm; ``structure_brdf``: both; ``profile_brdf``: the radial
-    profile ``s_prof_*`` and the BRDF; ``lbp``: the LBP baseline.
+    profile ``s_prof_*`` and the BRDF; ``lbp``: the LBP baseline;
+    ``texture_brdf``: structure, LBP and BRDF together.
     """
     names = list(table_columns)
     if group == "paper":
         return [c for c in names if c in ("roughness", "specular_norm", "n_peaks") or c.startswith(("r_", "z_", "x_"))]
     profile = tuple(c for c in STRUCTURE_COLUMNS if c.startswith("s_prof_"))
     wanted = {"structure": STRUCTURE_COLUMNS, "brdf": BRDF_COLUMNS, "lbp": LBP_COLUMNS,
-              "structure_brdf": STRUCTURE_COLUMNS + BRDF_COLUMNS, "profile_brdf": profile + BRDF_COLUMNS}.get(group)
+              "structure_brdf": STRUCTURE_COLUMNS + BRDF_COLUMNS, "profile_brdf": profile + BRDF_COLUMNS,
+              "texture_brdf": STRUCTURE_COLUMNS + LBP_COLUMNS + BRDF_COLUMNS}.get(group)
     if wanted is None:
         raise ValueError(f"unknown feature group {group!r}")
     return [c for c in names if c in wanted]
@@ -83,12 +85,14 @@ FEATURE_SETS = (
     FeatureSet("structure_fitted", "structure descriptor of the fitted relief", (("fitted", "structure"),)),
     FeatureSet("structure_brdf_fitted", "structure descriptor of the fitted relief + fitted BRDF",
                (("fitted", "structure_brdf"),)),
+    FeatureSet("texture_brdf_fitted", "structure descriptor and LBP of the fitted relief + fitted BRDF",
+               (("fitted", "texture_brdf"),)),
     FeatureSet("paper_photo", "Algorithm 2 on the photo's grey levels", (("photo", "paper"),)),
     FeatureSet("structure_photo", "structure descriptor of the photo's luminance", (("photo", "structure"),)),
     FeatureSet("lbp_photo", "uniform LBP histograms (8/1, 16/2, 24/3) of the photo's luminance", (("photo", "lbp"),)),
     FeatureSet("fitted_plus_photo", "structure + BRDF from the fit, with the photo's structure descriptor",
                (("fitted", "structure_brdf"), ("photo", "structure"))),
-    FeatureSet("auto_fitted", "chosen inside each fold among structure+BRDF, profile+BRDF, paper and LBP on fitted maps",
+    FeatureSet("auto_fitted", "chosen inside each fold among structure+BRDF, profile+BRDF, paper, LBP and texture+BRDF on fitted maps",
                (("fitted", "auto"),)),
     FeatureSet("auto_photo", "chosen inside each fold among the same sets on the photo", (("photo", "auto"),)),
     FeatureSet("auto_truth", "chosen inside each fold among the same sets on ground-truth maps", (("truth", "auto"),)),
@@ -129,12 +133,13 @@ def _unscored_row(feature_set: FeatureSet, reason: str) -> dict[str, object]:
 
 
 def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], images: list[str],
-                      reg: float | str) -> dict[str, object]:
+                      reg: float | str, subspace: str) -> dict[str, object]:
     """LOOCV of one feature set on ``images``: a report row (``status`` says why when not scored)."""
     try:
         frame, columns = joined_features(feature_set, tables, images)
         auto = [source for source, group in feature_set.parts if group == "auto"]
-        result = loocv(frame, columns, reg, select_from=auto_candidates(columns, auto[0]) if auto else None)
+        result = loocv(frame, columns, reg, select_from=auto_candidates(columns, auto[0]) if auto else None,
+                       subspace=subspace)
     except (KeyError, ValueError) as err:
         return _unscored_row(feature_set, str(err))
     chosen = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
@@ -143,7 +148,7 @@ def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], 
             "wilson_low": result.wilson_low, "wilson_high": result.wilson_high, "chance": result.chance_uniform}
 
 
-def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str = "auto") -> pd.DataFrame:
+def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subspace: str) -> pd.DataFrame:
     """Every feature set whose sources are all in ``tables``, scored on the images usable in all of them.
 
     ``truth`` is left out of the common image set when some of those images
@@ -158,7 +163,7 @@ def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str = "au
         if "truth" in feature_set.sources and not set(images) <= set(map(str, usable(tables["truth"]).index)):
             rows.append(_unscored_row(feature_set, "some images have no ground truth"))
             continue
-        rows.append(score_feature_set(feature_set, tables, images, reg))
+        rows.append(score_feature_set(feature_set, tables, images, reg, subspace))
     return pd.DataFrame(rows)
 
 
@@ -202,11 +207,11 @@ def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str]) ->
     return "\n".join(lines) + "\n"
 
 
-def feature_sets_job(table_paths: dict[str, str], reg: float | str, fitted_set: str, md_path: str | os.PathLike[str],
-                     csv_path: str | os.PathLike[str], log: object = None) -> pd.DataFrame:
+def feature_sets_job(table_paths: dict[str, str], reg: float | str, subspace: str, fitted_set: str,
+                     md_path: str | os.PathLike[str], csv_path: str | os.PathLike[str], log: object = None) -> pd.DataFrame:
     """The ``feature_sets`` rule: read each source's feature table, compare, write Markdown and CSV."""
     tables = {source: pd.read_parquet(path) for source, path in table_paths.items()}
-    report = compare_feature_sets(tables, reg)
+    report = compare_feature_sets(tables, reg, subspace)
     line = inverse_rendering_gain(report, fitted_set)
     write_text(Path(csv_path), report.to_csv(index=False, lineterminator="\n", float_format="%.6f"))
     write_text(Path(md_path), report_markdown(report, line, list(tables)))

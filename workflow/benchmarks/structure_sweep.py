@@ -75,7 +75,7 @@ def main() -> int:
             tables = with_settings(entry, settings)
             images = common_images(tables)
             for feature_set in (s for s in FEATURE_SETS if s.name in SETS):
-                scored = score_feature_set(feature_set, tables, images, "auto")
+                scored = score_feature_set(feature_set, tables, images, "auto", "none")
                 rows.append({"set": name, **cell, "feature_set": feature_set.name, "correct": int(scored["correct"]),
                              "n": int(scored["n"]), "accuracy": float(scored["accuracy"])})
     table = pd.DataFrame(rows)

@@ -19,6 +19,7 @@ rule classify:
         physics=[os.path.join(RESULTS, "physics", "{source}", f"{image}.json") for image in IMAGE_IDS],
     params:
         reg=config["classify"]["reg"],
+        subspace=config["classify"]["subspace"],
         images=IMAGE_IDS,
         feature_set=config["classify"]["feature_set"],
     log:
@@ -45,6 +46,7 @@ rule feature_sets:
         csv=feature_set_outputs()[1],
     params:
         reg=config["classify"]["reg"],
+        subspace=config["classify"]["subspace"],
         fitted_set=f"auto_{config['features']['normal_source']}",
     log:
         os.path.join(RESULTS, "logs", "feature_sets.log"),

@@ -15,6 +15,7 @@ with job_log(snakemake.log[0], "classify") as log:
         dict(zip(snakemake.params.images, snakemake.output.physics)),
         log,
         feature_set=snakemake.params.feature_set,
+        subspace=snakemake.params.subspace,
         comparison_csv=snakemake.input.get("comparison") or None,
         photo_table_path=snakemake.input.get("photo") or None,
     )

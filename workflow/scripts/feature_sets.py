@@ -6,6 +6,7 @@ with job_log(snakemake.log[0], "feature_sets") as log:
     feature_sets_job(
         dict(snakemake.input.items()),
         snakemake.params.reg,
+        snakemake.params.subspace,
         snakemake.params.fitted_set,
         snakemake.output.md,
         snakemake.output.csv,
