@@ -11,6 +11,7 @@ from PIL import Image
 from clothscope.atomic import atomic_dir, write_json
 from clothscope.imageio import ImageRejected, decode_image, linear_to_srgb, srgb_to_linear
 from clothscope.prepare import PrepareSettings, prepare_image, to_working_resolution
+from clothscope.structure import StructureSettings
 
 
 def test_srgb_round_trip_and_known_values():
@@ -145,3 +146,66 @@ def test_outputs_are_atomic(tmp_path):
     with pytest.raises(ValueError, match="non-finite"):
         write_json(tmp_path / "x.json", {"a": [1.0, float("nan")]})
     assert not (tmp_path / "x.json").exists()
+
+
+LATTICE = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3)
+
+
+def weave_photo(side: int, period: float, angle_deg: float = 20.0, seed: int = 0) -> np.ndarray:
+    """8-bit RGB of a plain-weave-like checker of threads ``period`` px apart, turned by ``angle_deg``, with noise."""
+    rng = np.random.default_rng(seed)
+    rows, cols = np.mgrid[0:side, 0:side].astype(np.float64)
+    a = np.deg2rad(angle_deg)
+    u, v = (cols * np.cos(a) + rows * np.sin(a)) / period, (-cols * np.sin(a) + rows * np.cos(a)) / period
+    relief = np.cos(2 * np.pi * u) * np.cos(2 * np.pi * v) + 0.3 * np.cos(2 * np.pi * u)
+    grey = 0.45 + 0.2 * relief + 0.03 * rng.standard_normal(relief.shape)
+    return np.repeat(np.clip(grey * 255, 0, 255).astype(np.uint8)[..., None], 3, axis=-1)
+
+
+@pytest.mark.parametrize("side, period", [(1024, 20.0), (900, 14.0), (1200, 30.0)])
+def test_native_period_is_measured_at_native_resolution(side, period):
+    from clothscope.imageio import srgb_to_linear
+    from clothscope.prepare import native_period
+
+    rgb = srgb_to_linear(weave_photo(side, period) / 255.0)
+    assert native_period(rgb, 1024, LATTICE) == pytest.approx(period, rel=0.05)
+
+
+def test_thread_scale_crops_fine_threads_into_the_band_and_records_it(tmp_path):
+    Image.fromarray(weave_photo(1024, 20.0)).save(tmp_path / "fine.png")
+    settings = PrepareSettings(working_resolution=256, scale="threads")
+    record = prepare_image("fine", tmp_path / "fine.png", tmp_path / "out", settings, LATTICE)
+    scale = record["scale"]
+    assert record["status"] == "accepted" and scale["method"] == "threads"
+    assert scale["native_period_px"] == pytest.approx(20.0, rel=0.05)
+    assert 256 < scale["crop_px"] < 1024
+    assert settings.period_band[0] <= scale["working_period_px"] <= settings.period_band[1]
+    assert scale["native_px_per_working_px"] == pytest.approx(scale["crop_px"] / 256)
+    assert "note" not in scale
+    # the whole frame would have put the threads at 5 px; "frame" keeps it and says nothing about threads
+    frame = prepare_image("fine", tmp_path / "fine.png", tmp_path / "frame", PrepareSettings(working_resolution=256))
+    assert frame["scale"] == {"method": "frame", "crop_px": 1024, "native_px_per_working_px": 4.0}
+
+
+def test_thread_scale_keeps_the_frame_when_threads_are_coarse_or_absent(tmp_path):
+    settings = PrepareSettings(working_resolution=128, scale="threads")
+    Image.fromarray(weave_photo(512, 48.0)).save(tmp_path / "coarse.png")
+    coarse = prepare_image("coarse", tmp_path / "coarse.png", tmp_path / "coarse", settings, LATTICE)["scale"]
+    assert coarse["crop_px"] == 512 and coarse["working_period_px"] == pytest.approx(12.0, rel=0.05)
+    noise = np.random.default_rng(3).integers(60, 200, size=(400, 400, 3), dtype=np.uint8)
+    Image.fromarray(noise).save(tmp_path / "noise.png")
+    plain = prepare_image("noise", tmp_path / "noise.png", tmp_path / "noise", settings, LATTICE)
+    assert plain["status"] == "accepted" and plain["scale"]["native_period_px"] is None
+    assert plain["scale"]["crop_px"] == 400 and "no thread lattice" in plain["scale"]["note"]
+    Image.fromarray(weave_photo(128, 4.0)).save(tmp_path / "tiny.png")
+    tiny = prepare_image("tiny", tmp_path / "tiny.png", tmp_path / "tiny", settings, LATTICE)["scale"]
+    assert tiny["crop_px"] == 128 and "photograph closer" in tiny["note"]  # never upsampled
+
+
+def test_thread_scale_needs_the_peak_test_and_a_valid_band(tmp_path):
+    with pytest.raises(ValueError, match="lattice"):
+        prepare_image("x", tmp_path / "x.png", tmp_path / "out", PrepareSettings(scale="threads"))
+    with pytest.raises(ValueError, match="period_band"):
+        PrepareSettings(period_band=(16.0, 8.0))
+    with pytest.raises(ValueError, match="scale"):
+        PrepareSettings(scale="zoom")

@@ -4,6 +4,13 @@ Decodes, applies EXIF orientation, converts sRGB to linear, centre-crops to a
 square, resizes to the working resolution and marks clipped pixels. A bad
 image is not an error of the run: :func:`prepare_image` records a rejection
 with a one-line reason instead.
+
+Scale from the threads (``prepare.scale: threads``): the thread period is
+measured on the photo at its native resolution (:func:`native_period`). When
+downscaling the whole frame would put it below ``period_band[0]`` working
+pixels, only a centred square is kept, sized so that the period lands at the
+band's geometric centre (never upsampling). The status record says what was
+found and chosen (``scale``), so a thread count per original pixel is known.
 """
 from __future__ import annotations
 
@@ -19,6 +26,7 @@ from PIL import Image
 
 from .atomic import atomic_dir, write_json
 from .imageio import ImageRejected, decode_image, linear_to_srgb, write_exr, write_png
+from .structure import StructureSettings, analysis_field, find_lattice, spectrum
 
 STATUS_FILE = "status.json"
 IMAGE_FILE = "image.exr"
@@ -35,12 +43,66 @@ class PrepareSettings:
     max_megapixels: float = 100.0
     clip_threshold: float = 0.98
     max_clipped_fraction: float = 0.5
+    scale: str = "frame"  # "threads": crop so the thread period lands in period_band (needs a lattice test)
+    period_band: tuple[float, float] = (8.0, 16.0)  # wanted thread period, working pixels
+    period_window: int = 1024  # side of the native-resolution centre square the period is measured on
 
     def __post_init__(self) -> None:
         if self.working_resolution < 16:
             raise ValueError(f"working_resolution must be >= 16, got {self.working_resolution}")
         if not 0.0 < self.clip_threshold <= 1.0:
             raise ValueError(f"clip_threshold must be in (0, 1], got {self.clip_threshold}")
+        if self.scale not in ("frame", "threads"):
+            raise ValueError(f"scale must be 'frame' or 'threads', got {self.scale!r}")
+        low, high = self.period_band
+        if not 2.0 <= low < high:
+            raise ValueError(f"period_band must be [low, high] with 2 <= low < high, got {list(self.period_band)}")
+        object.__setattr__(self, "period_band", (float(low), float(high)))
+
+
+#: Rec. 709 luminance weights of linear RGB.
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings) -> float | None:
+    """Thread period (native pixels) of the photo's centred ``window`` square, or None when no lattice stands out.
+
+    The period is the fundamental of :func:`clothscope.structure.find_lattice`
+    (the descriptor's peak test) on the luminance at native resolution.
+    """
+    square = centre_square(rgb)
+    side = min(square.shape[0], window)
+    top = (square.shape[0] - side) // 2
+    luminance = square[top : top + side, top : top + side, :3] @ LUMINANCE
+    found = find_lattice(spectrum(analysis_field(luminance, 0.0)), lattice)
+    return float(side / found.f0) if found.found and found.f0 > 0 else None
+
+
+def thread_crop(source_side: int, period: float | None, settings: PrepareSettings) -> tuple[int, dict[str, Any]]:
+    """Side of the centred square to keep, and the ``scale`` record of the status.
+
+    The whole frame is kept unless its downscaled thread period would fall
+    below ``period_band[0]``; then the crop puts it at the band's geometric
+    centre, but never smaller than the working resolution (no upsampling).
+    """
+    size = settings.working_resolution
+    low, high = settings.period_band
+    record: dict[str, Any] = {"method": settings.scale, "native_period_px": period, "period_band": [low, high]}
+    crop = source_side
+    if period is None:
+        record["note"] = "no thread lattice found at native resolution: the whole frame is used"
+    else:
+        if period * size / source_side < low:
+            crop = int(np.clip(round(size * period / np.sqrt(low * high)), size, source_side))
+        working = period * size / crop
+        if working < low:
+            record["note"] = (f"threads are {working:.1f} px at the working resolution, below {low:g} px, even at full "
+                              "native resolution: photograph closer")
+        elif working > high:
+            record["note"] = f"threads are {working:.1f} px at the working resolution, above {high:g} px: few threads in view"
+        record["working_period_px"] = working
+    record.update(crop_px=int(crop), native_px_per_working_px=crop / size)
+    return crop, record
 
 
 def centre_square(array: np.ndarray) -> np.ndarray:
@@ -58,28 +120,45 @@ def resize_channel(channel: np.ndarray, size: int) -> np.ndarray:
     return np.asarray(resized, dtype=np.float32)
 
 
-def to_working_resolution(rgb: np.ndarray, clipped: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
-    """Centre-crop and resize linear RGB and the clipped mask to ``size`` x ``size``.
+def centred(array: np.ndarray, side: int | None) -> np.ndarray:
+    """The centred ``side`` x ``side`` square of an (H, W, ...) array (None: the largest)."""
+    square = centre_square(array)
+    if side is None or side >= square.shape[0]:
+        return square
+    top = (square.shape[0] - side) // 2
+    return square[top : top + side, top : top + side]
+
+
+def to_working_resolution(rgb: np.ndarray, clipped: np.ndarray, size: int, crop: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Centre-crop (to ``crop`` px, default the largest square) and resize linear RGB and the clipped mask to ``size``.
 
     A working pixel is clipped when any source pixel under it was clipped.
     """
-    square = centre_square(rgb)
+    square = centred(rgb, crop)
     out = np.stack([resize_channel(square[..., c], size) for c in range(3)], axis=-1)
-    mask = resize_channel(centre_square(clipped).astype(np.float32), size) > 1e-6
+    mask = resize_channel(centred(clipped, crop).astype(np.float32), size) > 1e-6
     return np.clip(out, 0.0, None), mask
 
 
-def prepare_image(image_id: str, path: str | os.PathLike[str], out_dir: str | os.PathLike[str], settings: PrepareSettings) -> dict[str, Any]:
+def prepare_image(image_id: str, path: str | os.PathLike[str], out_dir: str | os.PathLike[str], settings: PrepareSettings,
+                  lattice: StructureSettings | None = None) -> dict[str, Any]:
     """Prepare one image into ``out_dir`` (written atomically) and return its status record.
 
     The record's ``status`` is ``"accepted"`` or ``"rejected"``; a rejected image
-    has a one-line ``reason`` and no pixel outputs.
+    has a one-line ``reason`` and no pixel outputs. ``lattice`` is the peak
+    test of the thread period, needed by ``settings.scale == "threads"``.
     """
+    if settings.scale == "threads" and lattice is None:
+        raise ValueError("prepare.scale 'threads' needs the lattice peak test (features.structure)")
     record: dict[str, Any] = {"image_id": image_id, "path": str(path), "settings": asdict(settings)}
     with atomic_dir(out_dir) as tmp:
         try:
             decoded = decode_image(path, settings.min_input_px, settings.max_megapixels, settings.clip_threshold)
-            rgb, clipped = to_working_resolution(decoded.rgb, decoded.clipped, settings.working_resolution)
+            side = min(decoded.rgb.shape[:2])
+            crop, scale = side, {"method": "frame", "crop_px": side, "native_px_per_working_px": side / settings.working_resolution}
+            if settings.scale == "threads":
+                crop, scale = thread_crop(side, native_period(decoded.rgb, settings.period_window, lattice), settings)
+            rgb, clipped = to_working_resolution(decoded.rgb, decoded.clipped, settings.working_resolution, crop)
             fraction = float(clipped.mean())
             if fraction > settings.max_clipped_fraction:
                 raise ImageRejected(
@@ -96,6 +175,7 @@ def prepare_image(image_id: str, path: str | os.PathLike[str], out_dir: str | os
                 bit_depth=decoded.bit_depth,
                 source_size=[int(decoded.rgb.shape[1]), int(decoded.rgb.shape[0])],
                 clipped_fraction=fraction,
+                scale=scale,
                 mean_linear_rgb=[float(v) for v in rgb.reshape(-1, 3).mean(axis=0)],
                 notes=decoded.notes,
             )

@@ -9,6 +9,7 @@ rule prepare:
         directory(os.path.join(RESULTS, "prepared", "{image}")),
     params:
         settings=config["prepare"],
+        lattice=config["features"]["structure"],
     log:
         os.path.join(RESULTS, "logs", "prepare", "{image}.log"),
     benchmark:

@@ -1,6 +1,7 @@
 """Snakemake job: prepare one image (logic in clothscope.prepare)."""
 from clothscope.joblog import job_log
 from clothscope.prepare import PrepareSettings, prepare_image
+from clothscope.structure import StructureSettings
 
 with job_log(snakemake.log[0], "prepare") as log:
     record = prepare_image(
@@ -8,5 +9,9 @@ with job_log(snakemake.log[0], "prepare") as log:
         snakemake.input[0],
         snakemake.output[0],
         PrepareSettings(**snakemake.params.settings),
+        StructureSettings(**snakemake.params.lattice),
     )
     log.info("%s: %s %s", record["image_id"], record["status"], record["reason"])
+    scale = record.get("scale") or {}
+    if scale.get("note"):
+        log.info("%s: %s", record["image_id"], scale["note"])
