@@ -98,6 +98,32 @@ def test_normals_without_joint_pass_keep_the_material_stage_bsdf(tmp_path):
     assert len(state["stopped"]) == 1 and not state["warnings"]
 
 
+def test_shade_texture_takes_the_holes_of_an_open_weave_and_stays_in_range(tmp_path):
+    """albedo_weight > 0: shade.exr is written, finite, in (0, 1 / s0], darker over gauze holes than over yarn."""
+    from clothscope.fit.normals import SHADE_FILE, SHADE_LATENT0
+    from clothscope.structure import StructureSettings, shade_features
+
+    settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, albedo_weight=0.05)
+    state = run_tiny_fit(SYNTHETIC / "cotton_gauze" / "cotton_gauze_ivory.png", tmp_path, normals=settings)
+    assert state["status"] == "fitted"
+    folder = tmp_path / "fit" / "normals"
+    assert_all_finite(state, folder)
+    shade = read_exr(folder / SHADE_FILE)[..., 0]
+    assert shade.shape == (64, 64) and np.all(np.isfinite(shade))
+    assert shade.min() > 0.0 and shade.max() <= 1.0 / (1.0 / (1.0 + math.exp(-SHADE_LATENT0))) + 1e-4
+    assert np.percentile(shade, 10) < 0.95 < np.percentile(shade, 90)  # the holes (dark backdrop) were darkened
+    # the exported scene loads and renders with its colour texture (albedo.exr = colour x shade)
+    mi = mitsuba_for("llvm_ad_rgb", 2)
+    rendered = np.array(mi.render(mi.load_file(str(folder / "scene.xml")), spp=16))[..., :3]
+    albedo = read_exr(folder / "albedo.exr")
+    assert albedo.shape == (64, 64, 3) and np.all(np.isfinite(rendered))
+    assert np.allclose(albedo[..., 0], shade * state["material"]["base_color"][0], atol=1e-4)
+    features = shade_features(shade.astype(np.float64), StructureSettings(0.1, 10.0, 0.3))
+    assert all(math.isfinite(v) for v in features.values()) and any(v != 0.0 for v in features.values())
+    # without a shade texture the shade columns are zero
+    assert set(shade_features(None, StructureSettings(0.1, 10.0, 0.3)).values()) == {0.0}
+
+
 HARD_CASES = {
     "black_cloth": dict(material=Material((0.004, 0.004, 0.005), 0.5, 0.6), light=PointLight(20, 40)),
     "saturated_white": dict(material=Material((0.95, 0.95, 0.95), 1.0, 0.15), light=PointLight(10, 0), gain=1.0),

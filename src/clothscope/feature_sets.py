@@ -19,7 +19,7 @@ import pandas as pd
 from .atomic import write_text
 from .classify import loocv
 from .features import STATUS_OK
-from .structure import LBP_COLUMNS, STRUCTURE_COLUMNS
+from .structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS
 
 #: Column groups of a feature table.
 BRDF_COLUMNS = ("roughness", "specular_norm")
@@ -36,7 +36,9 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
     ``x_*`` extras; ``structure``: ``s_*``; ``brdf``: roughness and
     specular_norm; ``structure_brdf``: both; ``profile_brdf``: the radial
     profile ``s_prof_*`` and the BRDF; ``lbp``: the LBP baseline;
-    ``texture_brdf``: structure, LBP and BRDF together.
+    ``texture_brdf``: structure, LBP and BRDF together; ``shade``: ``a_*``,
+    the structure descriptor of a fitted shade texture;
+    ``texture_shade_brdf``: ``texture_brdf`` and ``shade`` together.
     """
     names = list(table_columns)
     if group == "paper":
@@ -44,7 +46,8 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
     profile = tuple(c for c in STRUCTURE_COLUMNS if c.startswith("s_prof_"))
     wanted = {"structure": STRUCTURE_COLUMNS, "brdf": BRDF_COLUMNS, "lbp": LBP_COLUMNS,
               "structure_brdf": STRUCTURE_COLUMNS + BRDF_COLUMNS, "profile_brdf": profile + BRDF_COLUMNS,
-              "texture_brdf": STRUCTURE_COLUMNS + LBP_COLUMNS + BRDF_COLUMNS}.get(group)
+              "texture_brdf": STRUCTURE_COLUMNS + LBP_COLUMNS + BRDF_COLUMNS, "shade": SHADE_COLUMNS,
+              "texture_shade_brdf": STRUCTURE_COLUMNS + LBP_COLUMNS + SHADE_COLUMNS + BRDF_COLUMNS}.get(group)
     if wanted is None:
         raise ValueError(f"unknown feature group {group!r}")
     return [c for c in names if c in wanted]

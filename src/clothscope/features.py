@@ -38,7 +38,8 @@ Columns (:func:`feature_schema`, an explicit pyarrow schema):
 * this project's thread-structure descriptor, ``s_*``
   (:data:`clothscope.structure.STRUCTURE_COLUMNS`), and the plain texture
   baseline ``lbp_*`` (:data:`clothscope.structure.LBP_COLUMNS`), both of the
-  source's field;
+  source's field; ``a_*``, the structure descriptor of the fitted shade
+  texture (:data:`clothscope.structure.SHADE_COLUMNS`; zero without one);
 * with ``extras: true`` only, the ``x_*`` columns of
   :func:`clothscope.spectrum.extra_features` and :func:`surface_features`.
   ``x_period_px`` (thread period in photo pixels) is deliberately *not*
@@ -65,9 +66,11 @@ import pyarrow.parquet as pq
 from . import __version__
 from .atomic import write_with
 from .fit.light import luminance as photo_luminance
+from .fit.normals import SHADE_FILE
 from .imageio import read_exr
 from .spectrum import SpectrumResult, SpectrumSettings, analyse_normal_map, extra_features, plot_analysis
-from .structure import LBP_COLUMNS, STRUCTURE_COLUMNS, StructureSettings, lbp_baseline, structure_features
+from .structure import (LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS, StructureSettings, lbp_baseline, shade_features,
+                        structure_features)
 
 #: Where the maps come from: synthetic ground truth, the inverse renderer, or the photo alone.
 NORMAL_SOURCES = ("truth", "fitted", "photo")
@@ -129,7 +132,7 @@ def paper_feature_columns(n_peaks: int) -> list[str]:
 
 def feature_columns(n_peaks: int, extras: bool) -> list[str]:
     """Every feature column of a table: the paper's, the structure descriptor's, the LBP baseline's, the extras."""
-    return (paper_feature_columns(n_peaks) + list(STRUCTURE_COLUMNS) + list(LBP_COLUMNS)
+    return (paper_feature_columns(n_peaks) + list(STRUCTURE_COLUMNS) + list(LBP_COLUMNS) + list(SHADE_COLUMNS)
             + (list(EXTRA_COLUMNS) if extras else []))
 
 
@@ -170,7 +173,7 @@ def _row(image_id: str, fabric_class: str | None, settings: SpectrumSettings, ex
     for name in paper_feature_columns(settings.n_peaks)[2:]:
         value = features.get(name, 0.0)
         row[name] = int(round(value)) if name == "n_peaks" else _finite(value, name)
-    for name in (*STRUCTURE_COLUMNS, *LBP_COLUMNS):
+    for name in (*STRUCTURE_COLUMNS, *LBP_COLUMNS, *SHADE_COLUMNS):
         row[name] = _finite(structure.get(name, 0.0), name)
     if extras:
         for name in EXTRA_COLUMNS:
@@ -199,13 +202,13 @@ def surface_features(normals: np.ndarray, result: SpectrumResult, texels_per_pix
 
 def compute_row(image_id: str, fabric_class: str | None, normals: np.ndarray, field: np.ndarray, roughness: float,
                 specular: float, settings: SpectrumSettings, structure: StructureSettings, extras: bool,
-                **provenance: Any) -> tuple[dict[str, Any], SpectrumResult]:
+                shade: np.ndarray | None = None, **provenance: Any) -> tuple[dict[str, Any], SpectrumResult]:
     """:func:`feature_row` and the :class:`SpectrumResult` it came from (for the plot)."""
     result = analyse_normal_map(normals, settings)
     extra = {}
     if extras:
         extra = extra_features(result) | surface_features(np.asarray(normals), result, float(provenance.get("texels_per_pixel", 1.0)))
-    described = structure_features(field, structure)[0] | lbp_baseline(field)
+    described = structure_features(field, structure)[0] | lbp_baseline(field) | shade_features(shade, structure)
     row = _row(image_id, fabric_class, settings, extras, provenance, roughness, specular, result.features, extra, described)
     return row, result
 
@@ -277,6 +280,7 @@ class NormalInput:
     reason: str
     mitsuba_variant: str
     texels_per_pixel: float
+    shade: np.ndarray | None = None  # fitted shade texture, when the fit has one
 
 
 def _unusable(status: str, reason: str, variant: str) -> NormalInput:
@@ -322,7 +326,7 @@ def _read_three_channels(path: Path) -> np.ndarray:
 
 
 def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
-    """The fit_normals output of one image: ``state.json``, ``normal.exr`` and ``height.exr``."""
+    """The fit_normals output of one image: ``state.json``, ``normal.exr``, ``height.exr`` and any ``shade.exr``."""
     folder = Path(normals_dir)
     state = _read_record(folder / "state.json", "")
     if isinstance(state, NormalInput):
@@ -336,10 +340,11 @@ def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
         material = state["material"]
         normals = _read_three_channels(folder / "normal.exr")
         height = read_exr(folder / "height.exr")[..., 0].astype(np.float64)
-        if not (np.all(np.isfinite(normals)) and np.all(np.isfinite(height))):
-            raise ValueError("normal.exr or height.exr holds non-finite values")
+        shade = read_exr(folder / SHADE_FILE)[..., 0].astype(np.float64) if (folder / SHADE_FILE).is_file() else None
+        if not all(np.all(np.isfinite(a)) for a in (normals, height, 0.0 if shade is None else shade)):
+            raise ValueError(f"normal.exr, height.exr or {SHADE_FILE} holds non-finite values")
         return NormalInput(normals, height, _finite(material["roughness"], "roughness"), _finite(material["specular"], "specular"),
-                           STATUS_OK, "", variant, _finite(state.get("texels_per_pixel", 1.0), "texels_per_pixel"))
+                           STATUS_OK, "", variant, _finite(state.get("texels_per_pixel", 1.0), "texels_per_pixel"), shade)
     except (OSError, RuntimeError, ValueError, KeyError, TypeError) as err:
         return _unusable("failed", f"{folder}: {type(err).__name__}: {err}", variant)
 
@@ -443,7 +448,7 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
     if loaded.status == STATUS_OK:
         try:
             row, result = compute_row(image_id, fabric_class, loaded.normals, loaded.field, loaded.roughness,
-                                      loaded.specular, settings, structure, extras, **provenance)
+                                      loaded.specular, settings, structure, extras, loaded.shade, **provenance)
         except ValueError as err:
             loaded = _unusable("failed", f"spectrum analysis: {err}", loaded.mitsuba_variant)
     if row is None:

@@ -70,6 +70,9 @@ STRUCTURE_COLUMNS = (
     *[f"s_lbp_{k}" for k in range(10)],
 )
 LBP_COLUMNS = tuple(f"lbp_{p}_{r}_{k}" for p, r in LBP_SCALES for k in range(p + 2))
+#: The structure descriptor of a fitted shade (albedo) texture: ``a_`` + each structure column.
+SHADE_PREFIX = "a_"
+SHADE_COLUMNS = tuple(SHADE_PREFIX + name for name in STRUCTURE_COLUMNS)
 
 
 @dataclass(frozen=True)
@@ -329,6 +332,13 @@ def structure_features(field: np.ndarray, settings: StructureSettings) -> tuple[
     diagnostics = {"f0": lattice.f0, "period_px": f.shape[0] / lattice.f0, "lattice": lattice.found, "size": f.shape[0],
                    "profile": profile.tolist()}
     return features, diagnostics
+
+
+def shade_features(shade: np.ndarray | None, settings: StructureSettings) -> dict[str, float]:
+    """The :data:`SHADE_COLUMNS` of a fitted shade texture; all zero without one (a map of one colour)."""
+    if shade is None:
+        return dict.fromkeys(SHADE_COLUMNS, 0.0)
+    return {SHADE_PREFIX + name: value for name, value in structure_features(shade, settings)[0].items()}
 
 
 def lbp_baseline(field: np.ndarray) -> dict[str, float]:

@@ -65,7 +65,7 @@ def fit_one(job: tuple[str, str, dict]) -> dict:
     photo = load_prepared(ROOT / "results" / "prepared" / image)
     plan = plan_stage("normals", geometry_evidence(fit.grid, fit.camera, fit.light))
     started = time.perf_counter()
-    _, material, _ = fit_normals(mi, fit, at_resolution(photo, settings["resolution"]), plan, NormalSettings(**settings),
+    _, material, _, _ = fit_normals(mi, fit, at_resolution(photo, settings["resolution"]), plan, NormalSettings(**settings),
                                  logging.getLogger("normals_sweep"))
     return {"image_id": image, "fabric_class": fabric_class, "roughness": material.roughness,
             "roughness_true": truth["roughness"], "roughness_error": abs(material.roughness - truth["roughness"]),

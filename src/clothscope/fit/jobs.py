@@ -23,8 +23,8 @@ from ..runtime import mitsuba_for, runtime_metadata
 from .effects import geometry_evidence, plan_stage
 from .geometry import GeometrySettings, fit_geometry
 from .material import MaterialSettings, fit_material
-from .model import FitScene, build_scene
-from .normals import NormalSettings, fit_normals, height_to_normals_np
+from .model import FitScene, build_scene, shaded_texture
+from .normals import ALBEDO_FILE, SHADE_FILE, NormalSettings, fit_normals, height_to_normals_np
 from .stage import (STATE_FILE, SkipStage, Target, at_resolution, load_prepared, load_state, psnr, save_state,
                     scene_xml, write_comparison, write_loss_curve)
 
@@ -51,21 +51,26 @@ def _run_job(out_dir: str | os.PathLike[str], stage: str, log: logging.Logger,
     return record
 
 
-def _render_fit(mi: Any, fit: FitScene, resolution: int, texture: np.ndarray | None = None) -> tuple[np.ndarray, Any]:
+def _render_fit(mi: Any, fit: FitScene, resolution: int, texture: np.ndarray | None = None,
+                albedo: np.ndarray | None = None) -> tuple[np.ndarray, Any]:
     """The fit re-rendered at ``resolution`` (linear RGB) and the scene it was rendered from."""
-    scene = build_scene(mi, fit, resolution, {"type": "direct"}, normal_texture=texture)
+    scene = build_scene(mi, fit, resolution, {"type": "direct"}, normal_texture=texture, albedo_texture=albedo)
     return np.array(mi.render(scene, spp=PREVIEW_SPP, seed=7), dtype=np.float32)[..., :3], scene
 
 
 def _write_common(tmp: Path, mi: Any, fit: FitScene, photo: Target, curve: list[dict[str, float]],
-                  record: dict[str, Any], texture: np.ndarray | None, normal_file: str | None) -> dict[str, Any]:
+                  record: dict[str, Any], texture: np.ndarray | None, normal_file: str | None,
+                  albedo: np.ndarray | None = None) -> dict[str, Any]:
     """Outputs every stage writes: loss curve, side-by-side PNG, mesh, scene file and state."""
-    rendered, scene = _render_fit(mi, fit, photo.resolution, texture)
+    rendered, scene = _render_fit(mi, fit, photo.resolution, texture, albedo)
     record["psnr_db"] = psnr(rendered, photo)
     write_loss_curve(tmp / "loss.csv", curve)
     write_comparison(tmp / "compare.png", photo, rendered)
     scene.shapes()[0].write_ply(str(tmp / MESH_FILE))
-    write_text(tmp / "scene.xml", scene_xml(fit, MESH_FILE, normal_file, photo.resolution))
+    if albedo is not None:
+        write_exr(tmp / ALBEDO_FILE, albedo)
+    write_text(tmp / "scene.xml", scene_xml(fit, MESH_FILE, normal_file, photo.resolution,
+                                            albedo_file=None if albedo is None else ALBEDO_FILE))
     save_state(tmp, fit, record | {"runtime": runtime_metadata(mi)})
     return record
 
@@ -114,10 +119,12 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
     """``fit_normals`` for one image: normal map, height map, preview and the refined BSDF."""
     def body(tmp: Path) -> dict[str, Any]:
         fit, photo, mi, plan = _continue_fit(material_dir, prepared_dir, "normals", variant, threads, full_effects, log)
-        height, fit.material, loops = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log)
+        height, fit.material, loops, shade = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log)
         normals = height_to_normals_np(height).astype(np.float32)
         write_exr(tmp / "normal.exr", normals)
         write_exr(tmp / "height.exr", np.repeat(height[..., None], 3, axis=2).astype(np.float32))
+        if shade is not None:
+            write_exr(tmp / SHADE_FILE, np.repeat(shade[..., None], 3, axis=2).astype(np.float32))
         write_png(tmp / "normal.png", normals * 0.5 + 0.5)
         texels_per_pixel = settings.texture / (photo.resolution * (1 + fit.margin))
         record = {"effects": [plan.as_record()], "warnings": [w for loop in loops for w in loop.warnings],
@@ -126,6 +133,7 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
         write_json(tmp / "material.json", {"material": fit.material.as_dict(), "effects": [plan.as_record()],
                                            "refined_jointly_with_normal_map": True, "texels_per_pixel": texels_per_pixel})
         curve = [r | {"phase": phase} for phase, loop in zip(("normals", "normals+bsdf"), loops) for r in loop.curve]
-        return _write_common(tmp, mi, fit, photo, curve, record, normals * 0.5 + 0.5, "normal.png")
+        albedo = None if shade is None else shaded_texture(fit.material, shade)
+        return _write_common(tmp, mi, fit, photo, curve, record, normals * 0.5 + 0.5, "normal.png", albedo)
 
     return _run_job(out_dir, "normals", log, body)

@@ -52,9 +52,10 @@ def base_color(mi: ModuleType, latent: Any) -> Any:
     return mi.Color3f(*(sigmoid(dr.gather(mi.Float, latent, i)) for i in range(3)))
 
 
-def apply_material(mi: ModuleType, params: Any, latents: Any, min_roughness: float) -> None:
-    """Write differentiable material latents into the scene parameters."""
-    params[BSDF_KEYS["base_color"]] = base_color(mi, latents["color"])
+def apply_material(mi: ModuleType, params: Any, latents: Any, min_roughness: float, textured: bool = False) -> None:
+    """Write differentiable material latents into the scene parameters (``textured``: the caller writes the colour texture)."""
+    if not textured:
+        params[BSDF_KEYS["base_color"]] = base_color(mi, latents["color"])
     params[BSDF_KEYS["specular"]] = sigmoid(latents["specular"])
     params[BSDF_KEYS["roughness"]] = min_roughness + (1 - min_roughness) * sigmoid(latents["roughness"])
 

@@ -28,6 +28,7 @@ BSDF_KEYS = {
     "specular": "cloth.bsdf.nested_bsdf.specular",
     "roughness": "cloth.bsdf.nested_bsdf.roughness.value",
     "normalmap": "cloth.bsdf.normalmap.data",
+    "albedo": "cloth.bsdf.nested_bsdf.base_color.data",
     "vertices": "cloth.vertex_positions",
 }
 
@@ -136,15 +137,25 @@ def flat_normal_texture(size: int) -> np.ndarray:
     return texture
 
 
-def cloth_bsdf_dict(mi: ModuleType, material: Material, normal_texture: np.ndarray) -> dict[str, Any]:
-    """Principled BSDF wrapped in a normal map (raw bilinear texture)."""
+def shaded_texture(material: Material, shade: np.ndarray) -> np.ndarray:
+    """(T, T, 3) linear base-colour texture: the material colour times a (T, T) shade."""
+    return (np.asarray(shade, dtype=np.float32)[..., None] * np.asarray(material.base_color, dtype=np.float32)).astype(np.float32)
+
+
+def cloth_bsdf_dict(mi: ModuleType, material: Material, normal_texture: np.ndarray,
+                    albedo_texture: np.ndarray | None = None) -> dict[str, Any]:
+    """Principled BSDF wrapped in a normal map (raw bilinear texture); ``albedo_texture``: a (T, T, 3) base-colour texture."""
+    color: dict[str, Any] = {"type": "rgb", "value": [float(c) for c in material.base_color]}
+    if albedo_texture is not None:
+        color = {"type": "bitmap", "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp",
+                 "data": mi.TensorXf(np.ascontiguousarray(albedo_texture, dtype=np.float32))}
     return {
         "type": "normalmap",
         "normalmap": {"type": "bitmap", "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp",
                       "data": mi.TensorXf(np.ascontiguousarray(normal_texture, dtype=np.float32))},
         "bsdf": {
             "type": "principled",
-            "base_color": {"type": "rgb", "value": [float(c) for c in material.base_color]},
+            "base_color": color,
             "specular": float(material.specular),
             "roughness": float(material.roughness),
         },
@@ -152,12 +163,13 @@ def cloth_bsdf_dict(mi: ModuleType, material: Material, normal_texture: np.ndarr
 
 
 def build_scene(mi: ModuleType, fit: FitScene, resolution: int, integrator: dict[str, Any],
-                normal_texture: np.ndarray | None = None, sample_border: bool = False) -> Any:
-    """Load the Mitsuba scene of a fit at ``resolution`` px with the given integrator."""
+                normal_texture: np.ndarray | None = None, sample_border: bool = False,
+                albedo_texture: np.ndarray | None = None) -> Any:
+    """Load the Mitsuba scene of a fit at ``resolution`` px with the given integrator (and a base-colour texture)."""
     if integrator["type"] == UNSHADOWED:
         register_unshadowed(mi)
     texture = flat_normal_texture(8) if normal_texture is None else normal_texture
-    bsdf = mi.load_dict(cloth_bsdf_dict(mi, fit.material, texture))
+    bsdf = mi.load_dict(cloth_bsdf_dict(mi, fit.material, texture, albedo_texture))
     n = fit.grid.shape[0]
     mesh = cloth_mesh(mi, fit.grid, grid_texcoords(n), np.ones((n, n), dtype=bool), bsdf)
     return mi.load_dict({

@@ -16,6 +16,13 @@ forward render's own noise; Adam scales its steps down by that noise, so the
 roughness drifts to its optimum too slowly. Extra forward samples cost about
 half what extra gradient samples do, and on the synthetic set only they
 helped (README, "Inverse renderer").
+
+With ``albedo_weight > 0`` the base colour becomes a texture: the material
+colour times a per-texel *shade* ``s`` in (0, 1 / s0) (a logistic latent,
+1 at the start), fitted with the height map. The prior ``albedo_weight *
+mean|s - 1|`` lets the shade take only what the relief cannot explain under
+the one light: holes showing a backdrop, occluded crevices, dyed yarns. It
+is written as ``shade.exr``.
 """
 from __future__ import annotations
 
@@ -25,12 +32,13 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
+from scipy.special import expit
 
 from .effects import Plan
 from .loop import LoopSettings, optimise
 from .material import apply_material, material_from_latents, material_latents
-from .model import BSDF_KEYS, FitScene, Material, build_scene, flat_normal_texture
-from .stage import Target, image_loss, render
+from .model import BSDF_KEYS, FitScene, Material, build_scene, flat_normal_texture, shaded_texture
+from .stage import Target, image_loss, render, sigmoid
 
 
 @dataclass(frozen=True)
@@ -48,6 +56,15 @@ class NormalSettings:
     joint_iterations: int = 200
     joint_learning_rate: float = 0.02
     min_roughness: float = 0.05
+    albedo_weight: float = 0.0  # > 0: fit a shade texture with this L1 prior weight (0: one colour)
+
+
+#: File of the fitted shade texture in the stage's output folder (three equal channels).
+SHADE_FILE = "shade.exr"
+#: File of the fitted base-colour texture (linear RGB: colour times shade), which ``scene.xml`` reads.
+ALBEDO_FILE = "albedo.exr"
+#: Logistic latent of a shade of 1 (the shade texture's start and prior centre); s0 = sigmoid(SHADE_LATENT0).
+SHADE_LATENT0 = 2.0
 
 
 def neighbour_indices(size: int) -> dict[str, np.ndarray]:
@@ -77,12 +94,30 @@ def normal_texture(mi: ModuleType, height: Any, neighbours: dict[str, Any], size
     return mi.TensorXf(dr.ravel(n * 0.5 + 0.5), shape=(size, size, 3))
 
 
+def shade_of(mi: ModuleType, latent: Any) -> Any:
+    """Per-texel shade (1 at :data:`SHADE_LATENT0`) of its logistic latent."""
+    return sigmoid(latent) / float(expit(SHADE_LATENT0))
+
+
+def shaded_albedo(mi: ModuleType, color_latent: Any, shade_latent: Any, size: int) -> Any:
+    """Differentiable (size, size, 3) base-colour texture: the material colour times the shade."""
+    import drjit as dr
+
+    shade = shade_of(mi, shade_latent)
+    color = [sigmoid(dr.gather(mi.Float, color_latent, i)) for i in range(3)]
+    return mi.TensorXf(dr.ravel(mi.Color3f(color[0] * shade, color[1] * shade, color[2] * shade)), shape=(size, size, 3))
+
+
 def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: NormalSettings,
-                log: logging.Logger) -> tuple[np.ndarray, Material, list[Any]]:
-    """Fit the height map, then height map and BSDF jointly; returns height, material and loop results."""
+                log: logging.Logger) -> tuple[np.ndarray, Material, list[Any], np.ndarray | None]:
+    """Fit the height map (and shade), then with the BSDF jointly; returns height, material, loop results, shade."""
+    import drjit as dr
+
     size = settings.texture
+    textured = settings.albedo_weight > 0
     scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), normal_texture=flat_normal_texture(size),
-                        sample_border=plan.projective)
+                        sample_border=plan.projective,
+                        albedo_texture=shaded_texture(fit.material, np.ones((size, size))) if textured else None)
     params = mi.traverse(scene)
     neighbours = {k: mi.UInt32(v) for k, v in neighbour_indices(size).items()}
     fixed = material_latents(fit.material, settings.min_roughness)
@@ -90,20 +125,35 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
 
     def loss_fn(opt, it):
         params[BSDF_KEYS["normalmap"]] = normal_texture(mi, opt["height"], neighbours, size)
-        apply_material(mi, params, {k: opt[k] if k in opt else fixed_arrays[k] for k in fixed}, settings.min_roughness)
+        latents = {k: opt[k] if k in opt else fixed_arrays[k] for k in fixed}
+        apply_material(mi, params, latents, settings.min_roughness, textured=textured)
+        if textured:
+            params[BSDF_KEYS["albedo"]] = shaded_albedo(mi, latents["color"], opt["shade"], size)
         params.update()
-        return image_loss(mi, render(mi, scene, params, settings.spp, it, settings.spp_grad), target)
+        loss = image_loss(mi, render(mi, scene, params, settings.spp, it, settings.spp_grad), target)
+        if textured:
+            loss = loss + settings.albedo_weight * dr.mean(dr.abs(shade_of(mi, opt["shade"]) - 1.0))
+        return loss
 
     height0 = {"height": np.zeros(size * size, dtype=np.float32)}
+    if textured:
+        height0["shade"] = np.full(size * size, SHADE_LATENT0, dtype=np.float32)
     first = optimise(mi, height0, loss_fn, LoopSettings(settings.iterations, settings.learning_rate, settings.patience,
                                                         settings.min_improvement), log, "normals")
     joint_start = first.best | fixed
     if settings.joint_iterations == 0:  # BSDF kept from the material stage
-        return first.best["height"].reshape(size, size).astype(np.float64), fit.material, [first]
+        return first.best["height"].reshape(size, size).astype(np.float64), fit.material, [first], _shade(first.best, size)
     # the joint phase runs all its iterations and keeps the last iterate: its noisy loss flattens long before the
     # roughness stops drifting, and the lowest noisy loss would favour rough lobes (see clothscope.fit.loop)
     second = optimise(mi, joint_start, loss_fn, LoopSettings(settings.joint_iterations, settings.joint_learning_rate,
                                                              keep="last"), log, "normals+bsdf")
     best = second.best if second.best_loss <= first.best_loss else joint_start
     material = material_from_latents({k: best[k] for k in fixed}, settings.min_roughness)
-    return best["height"].reshape(size, size).astype(np.float64), material, [first, second]
+    return best["height"].reshape(size, size).astype(np.float64), material, [first, second], _shade(best, size)
+
+
+def _shade(latents: dict[str, np.ndarray], size: int) -> np.ndarray | None:
+    """The fitted (size, size) shade texture, or None without one."""
+    if "shade" not in latents:
+        return None
+    return (expit(latents["shade"].astype(np.float64)) / expit(SHADE_LATENT0)).reshape(size, size)

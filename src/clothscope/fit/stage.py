@@ -157,11 +157,15 @@ def load_state(stage_dir: str | os.PathLike[str]) -> tuple[FitScene, dict[str, A
     return fit, record
 
 
-def scene_xml(fit: FitScene, mesh_file: str, normal_file: str | None, resolution: int, spp: int = 64) -> str:
-    """A Mitsuba 3 scene file that re-renders the fit (`mitsuba scene.xml`)."""
+def scene_xml(fit: FitScene, mesh_file: str, normal_file: str | None, resolution: int, spp: int = 64,
+              albedo_file: str | None = None) -> str:
+    """A Mitsuba 3 scene file that re-renders the fit (`mitsuba scene.xml`); ``albedo_file``: a base-colour texture."""
     m, light = fit.material, fit.light
     color = " ".join(f"{c:.6g}" for c in m.base_color)
-    principled = (f'<bsdf type="principled"><rgb name="base_color" value="{color}"/>'
+    base = f'<rgb name="base_color" value="{color}"/>' if albedo_file is None else (
+        f'<texture name="base_color" type="bitmap"><string name="filename" value="{albedo_file}"/>'
+        f'<boolean name="raw" value="true"/></texture>')
+    principled = (f'<bsdf type="principled">{base}'
                   f'<float name="specular" value="{m.specular:.6g}"/><float name="roughness" value="{m.roughness:.6g}"/></bsdf>')
     bsdf = principled if normal_file is None else (
         f'<bsdf type="normalmap"><texture name="normalmap" type="bitmap"><string name="filename" value="{normal_file}"/>'
