@@ -204,7 +204,7 @@ def test_joined_table_marks_an_image_unusable_when_any_source_fails():
     assert row["status"] == "missing" and row["reason"].startswith("photo:")
     assert "fitted.s_prof_1" in joined and "photo.s_prof_1" in joined
     sets = classifier_candidates("auto", "fitted", joined.columns)
-    assert set(sets) == {"structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf", "photo_structure", "plus_photo"}
+    assert set(sets) == {"structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf", "texture_shade_brdf", "photo_structure", "plus_photo"}
     assert sets["plus_photo"] == sets["structure_brdf"] + sets["photo_structure"]
     with pytest.raises(ValueError, match="needs sources"):
         classifier_candidates("photo_structure", "photo", joined.columns)

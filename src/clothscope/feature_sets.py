@@ -24,7 +24,7 @@ from .structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS
 #: Column groups of a feature table.
 BRDF_COLUMNS = ("roughness", "specular_norm")
 #: Column groups the ``auto`` feature set chooses from, inside each LOOCV fold (ties go to the first).
-AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf")
+AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf", "texture_shade_brdf")
 #: Provenance columns a joined table keeps from its first source.
 JOINED_PROVENANCE = ("image_id", "fabric_class", "status", "reason", "normal_source", "mitsuba_variant", "config_hash")
 
@@ -95,7 +95,7 @@ FEATURE_SETS = (
     FeatureSet("lbp_photo", "uniform LBP histograms (8/1, 16/2, 24/3) of the photo's luminance", (("photo", "lbp"),)),
     FeatureSet("fitted_plus_photo", "structure + BRDF from the fit, with the photo's structure descriptor",
                (("fitted", "structure_brdf"), ("photo", "structure"))),
-    FeatureSet("auto_fitted", "chosen inside each fold among structure+BRDF, profile+BRDF, paper, LBP and texture+BRDF on fitted maps",
+    FeatureSet("auto_fitted", "chosen inside each fold among structure+BRDF, profile+BRDF, paper, LBP, texture+BRDF and texture+shade+BRDF on fitted maps",
                (("fitted", "auto"),)),
     FeatureSet("auto_photo", "chosen inside each fold among the same sets on the photo", (("photo", "auto"),)),
     FeatureSet("auto_truth", "chosen inside each fold among the same sets on ground-truth maps", (("truth", "auto"),)),
