@@ -189,10 +189,11 @@ def _percent(value: float) -> str:
     return f"{100.0 * value:.1f}%" if math.isfinite(value) else "-"
 
 
-def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str]) -> str:
+def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str], subspace: str) -> str:
     """The Markdown of ``feature_sets.md``."""
     lines = ["# Feature sets side by side", "",
-             f"LOOCV QDA (the classifier of record, Ledoit-Wolf shrinkage) on the same labelled images, from the "
+             f"LOOCV QDA (the classifier of record, Ledoit-Wolf shrinkage"
+             f"{', in the discriminant subspace of each fold' if subspace == 'discriminant' else ''}) on the same labelled images, from the "
              f"sources {', '.join(sources)}. 95% Wilson intervals; chance is 1 / number of classes.", "",
              gain_line, "",
              "| feature set | what | features | correct | accuracy | 95% interval | chance | note |",
@@ -217,7 +218,7 @@ def feature_sets_job(table_paths: dict[str, str], reg: float | str, subspace: st
     report = compare_feature_sets(tables, reg, subspace)
     line = inverse_rendering_gain(report, fitted_set)
     write_text(Path(csv_path), report.to_csv(index=False, lineterminator="\n", float_format="%.6f"))
-    write_text(Path(md_path), report_markdown(report, line, list(tables)))
+    write_text(Path(md_path), report_markdown(report, line, list(tables), subspace))
     if log is not None:
         log.info("%s", line)
     return report
