@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -146,6 +147,24 @@ def test_outputs_are_atomic(tmp_path):
     with pytest.raises(ValueError, match="non-finite"):
         write_json(tmp_path / "x.json", {"a": [1.0, float("nan")]})
     assert not (tmp_path / "x.json").exists()
+
+
+def test_a_rerun_removes_what_a_killed_writer_left_and_nothing_else(tmp_path):
+    """A SIGKILLed job leaves .<name>.<random>.tmp behind; the next writer of that target removes it."""
+    import tempfile
+
+    from clothscope.atomic import stale_temporaries, write_text
+
+    stale_dir = Path(tempfile.mkdtemp(prefix=".normals.", suffix=".tmp", dir=tmp_path))
+    (stale_dir / "half.exr").write_text("partial")
+    stale_file = Path(tempfile.mkstemp(prefix=".state.json.", suffix=".tmp.json", dir=tmp_path)[1])
+    neighbour = Path(tempfile.mkdtemp(prefix=".normals.v2.", suffix=".tmp", dir=tmp_path))  # another target's writer
+    assert stale_temporaries(tmp_path / "normals") == [stale_dir]
+    with atomic_dir(tmp_path / "normals") as tmp:
+        (tmp / "normal.exr").write_text("whole")
+    write_text(tmp_path / "state.json", "{}")
+    assert not stale_dir.exists() and not stale_file.exists() and neighbour.is_dir()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([neighbour.name, "normals", "state.json"])
 
 
 LATTICE = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3)
