@@ -22,7 +22,7 @@ colour times a per-texel *shade* ``s`` in (0, 1 / s0) (a logistic latent,
 1 at the start), fitted with the height map. The prior ``albedo_weight *
 mean|s - 1|`` lets the shade take only what the relief cannot explain under
 the one light: holes showing a backdrop, occluded crevices, dyed yarns. It
-is written as ``shade.exr``.
+is written as ``shade.exr`` and the colour texture as ``albedo.exr``.
 """
 from __future__ import annotations
 
