@@ -389,6 +389,28 @@ def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "
     return correct / len(y)
 
 
+def _distinct_candidates(table: pd.DataFrame, candidates: dict[str, list[str]]) -> dict[str, list[str]]:
+    """The candidates less any whose varying columns repeat an earlier one's (same score; ties go to the first).
+
+    A group whose extra columns are constant over the labelled rows (the shade
+    descriptor of fits without a colour texture) is then scored once, not twice.
+    """
+    union = list(dict.fromkeys(c for columns in candidates.values() for c in columns))
+    try:
+        labelled = split_labelled(table)[0]
+        varying = set(_drop_constant(_features(labelled, union, "labelled rows"), union)[0])
+    except (KeyError, ValueError):  # choose_columns reports such problems per candidate
+        return candidates
+    distinct: dict[str, list[str]] = {}
+    seen: set[tuple[str, ...]] = set()
+    for name, columns in candidates.items():
+        key = tuple(c for c in columns if c in varying)
+        if key not in seen:
+            seen.add(key)
+            distinct[name] = columns
+    return distinct
+
+
 def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str = "auto",
                    subspace: str = "none") -> tuple[str, dict[str, float]]:
     """The candidate column set with the highest :func:`inner_accuracy` on ``table`` (ties: the first listed), and every score.
@@ -406,7 +428,7 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
         return next(iter(candidates)), {}
     scores: dict[str, float] = {}
     problems = []
-    for name, columns in candidates.items():
+    for name, columns in _distinct_candidates(table, candidates).items():
         try:
             scores[name] = inner_accuracy(table, columns, reg, subspace)
         except ValueError as err:

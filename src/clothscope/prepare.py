@@ -25,6 +25,7 @@ import numpy as np
 from PIL import Image
 
 from .atomic import atomic_dir, write_json
+from .fit.light import luminance
 from .imageio import ImageRejected, decode_image, linear_to_srgb, write_exr, write_png
 from .structure import StructureSettings, analysis_field, find_lattice, spectrum
 
@@ -60,22 +61,15 @@ class PrepareSettings:
         object.__setattr__(self, "period_band", (float(low), float(high)))
 
 
-#: Rec. 709 luminance weights of linear RGB.
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
-
-
 def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings) -> float | None:
     """Thread period (native pixels) of the photo's centred ``window`` square, or None when no lattice stands out.
 
     The period is the fundamental of :func:`clothscope.structure.find_lattice`
     (the descriptor's peak test) on the luminance at native resolution.
     """
-    square = centre_square(rgb)
-    side = min(square.shape[0], window)
-    top = (square.shape[0] - side) // 2
-    luminance = square[top : top + side, top : top + side, :3] @ LUMINANCE
-    found = find_lattice(spectrum(analysis_field(luminance, 0.0)), lattice)
-    return float(side / found.f0) if found.found and found.f0 > 0 else None
+    square = centred(rgb, window)[..., :3]
+    found = find_lattice(spectrum(analysis_field(luminance(square), 0.0)), lattice)
+    return float(square.shape[0] / found.f0) if found.found and found.f0 > 0 else None
 
 
 def thread_crop(source_side: int, period: float | None, settings: PrepareSettings) -> tuple[int, dict[str, Any]]:
@@ -103,6 +97,14 @@ def thread_crop(source_side: int, period: float | None, settings: PrepareSetting
         record["working_period_px"] = working
     record.update(crop_px=int(crop), native_px_per_working_px=crop / size)
     return crop, record
+
+
+def working_crop(rgb: np.ndarray, settings: PrepareSettings, lattice: StructureSettings | None) -> tuple[int, dict[str, Any]]:
+    """Side of the centred square ``prepare`` resizes, and the status's ``scale`` record (``settings.scale``)."""
+    side = min(rgb.shape[:2])
+    if settings.scale == "frame":
+        return side, {"method": "frame", "crop_px": side, "native_px_per_working_px": side / settings.working_resolution}
+    return thread_crop(side, native_period(rgb, settings.period_window, lattice), settings)
 
 
 def centre_square(array: np.ndarray) -> np.ndarray:
@@ -154,10 +156,7 @@ def prepare_image(image_id: str, path: str | os.PathLike[str], out_dir: str | os
     with atomic_dir(out_dir) as tmp:
         try:
             decoded = decode_image(path, settings.min_input_px, settings.max_megapixels, settings.clip_threshold)
-            side = min(decoded.rgb.shape[:2])
-            crop, scale = side, {"method": "frame", "crop_px": side, "native_px_per_working_px": side / settings.working_resolution}
-            if settings.scale == "threads":
-                crop, scale = thread_crop(side, native_period(decoded.rgb, settings.period_window, lattice), settings)
+            crop, scale = working_crop(decoded.rgb, settings, lattice)
             rgb, clipped = to_working_resolution(decoded.rgb, decoded.clipped, settings.working_resolution, crop)
             fraction = float(clipped.mean())
             if fraction > settings.max_clipped_fraction:
