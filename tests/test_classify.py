@@ -12,17 +12,15 @@ from clothscope.classify import (
     FlooredQDA,
     LoocvResult,
     confusion_matrix,
-    load_model,
     loocv,
     make_qda,
-    metadata_path,
     per_class_metrics,
     predict,
-    save_model,
     train_model,
     wilson_interval,
     write_reports,
 )
+from clothscope.qda_model import ARRAYS_NAME, RECORD_NAME, QdaParameters, load_model, save_model
 
 FEATURES = ["f0", "f1", "f2"]
 
@@ -247,22 +245,88 @@ def test_precision_zero_with_note_when_class_never_predicted():
     assert notes == ["precision of 'c' set to 0: no image was predicted as 'c'"]
 
 
+@pytest.mark.parametrize("subspace", ["none", "discriminant"])
+def test_model_arrays_give_the_pipelines_posteriors(subspace):
+    table = gaussian_table({"a": 5, "b": 4, "c": 6}, separation=2.0, seed=3)
+    probe = gaussian_table({"a": 3, "b": 3, "c": 3}, separation=2.0, seed=4)
+    model = train_model(table, FEATURES, "auto", subspace)
+    pipeline = make_qda("auto", subspace=subspace).fit(table[FEATURES].to_numpy(), table["fabric_class"].to_numpy())
+    expected = pipeline.predict_proba(probe[FEATURES].to_numpy())
+    np.testing.assert_allclose(posterior_matrix(predict(model, probe)), expected, rtol=1e-9, atol=1e-12)
+    assert model.parameters.projection.shape == ((3, 2) if subspace == "discriminant" else (3, 3))
+
+
 def test_model_save_load_round_trip(tmp_path):
     table = gaussian_table({"a": 5, "b": 5, "c": 5}, seed=8)
-    model = train_model(table, FEATURES, 0.25)
-    path = tmp_path / "models" / "qda.pkl"
-    save_model(model, path, {"dataset": "unit-test"})
-    assert path.exists() and not list(path.parent.glob(".*tmp*"))
-    meta = json.loads(metadata_path(path).read_text())
-    assert meta["classes"] == ["a", "b", "c"] and meta["feature_columns"] == FEATURES
-    assert meta["metadata"] == {"dataset": "unit-test"} and meta["sklearn_version"]
-    loaded = load_model(path)
+    model = train_model(table, FEATURES, 0.25, "discriminant")
+    folder = tmp_path / "models"
+    save_model(model, folder, {"dataset": "unit-test"})
+    assert sorted(p.name for p in folder.iterdir()) == [RECORD_NAME, ARRAYS_NAME]
+    record = json.loads((folder / RECORD_NAME).read_text())
+    assert record["classes"] == ["a", "b", "c"] and record["feature_columns"] == FEATURES
+    assert record["metadata"] == {"dataset": "unit-test"} and record["subspace"] == "discriminant"
+    loaded = load_model(folder)
     probe = gaussian_table({"a": 2, "b": 2, "c": 2}, seed=11)
     np.testing.assert_array_equal(posterior_matrix(predict(model, probe)), posterior_matrix(predict(loaded, probe)))
     assert loaded.metadata["metadata"] == {"dataset": "unit-test"}
-    (tmp_path / "junk.pkl").write_bytes(b"not a pickle")
-    with pytest.raises(ValueError, match="junk.pkl"):
-        load_model(tmp_path / "junk.pkl")
+
+
+def saved_model(tmp_path):
+    folder = tmp_path / "model"
+    save_model(train_model(gaussian_table({"a": 4, "b": 4}, seed=2), FEATURES), folder)
+    return folder
+
+
+def test_model_files_that_do_not_match_are_refused_with_one_line(tmp_path):
+    with pytest.raises(ValueError, match="model.json: model record does not exist"):
+        load_model(tmp_path / "nowhere")
+    folder = saved_model(tmp_path)
+    (folder / RECORD_NAME).write_text("{not json")
+    with pytest.raises(ValueError, match="model.json: not a readable model record"):
+        load_model(folder)
+    folder = saved_model(tmp_path)
+    record = json.loads((folder / RECORD_NAME).read_text())
+    (folder / RECORD_NAME).write_text(json.dumps({**record, "format": "clothscope-qda-model/1"}))
+    with pytest.raises(ValueError, match="not a clothscope model record"):
+        load_model(folder)
+    other = tmp_path / "other"
+    save_model(train_model(gaussian_table({"a": 4, "b": 4}, seed=5), FEATURES), other)
+    folder = saved_model(tmp_path)
+    (folder / ARRAYS_NAME).write_bytes((other / ARRAYS_NAME).read_bytes())
+    with pytest.raises(ValueError, match="model.npz: arrays do not match the record"):
+        load_model(folder)
+    folder = saved_model(tmp_path)
+    (folder / RECORD_NAME).write_text(json.dumps({**record, "feature_columns": FEATURES[:2]}))
+    with pytest.raises(ValueError, match="model.json: 2 feature columns for arrays of 3 features"):
+        load_model(folder)
+
+
+def test_model_arrays_are_loaded_without_pickle(tmp_path):
+    """An arrays file holding an object array (which only pickle can load) is refused, not run."""
+    import hashlib
+    import io
+
+    folder = saved_model(tmp_path)
+    buffer = io.BytesIO()
+    np.savez(buffer, mean=np.array([object()], dtype=object))
+    data = buffer.getvalue()
+    (folder / ARRAYS_NAME).write_bytes(data)
+    record = json.loads((folder / RECORD_NAME).read_text())
+    (folder / RECORD_NAME).write_text(json.dumps({**record, "arrays_sha256": hashlib.sha256(data).hexdigest()}))
+    with pytest.raises(ValueError, match="model.npz: "):
+        load_model(folder)
+
+
+def test_model_arrays_must_be_finite_and_consistent():
+    ok = dict(mean=np.zeros(2), scale=np.ones(2), projection=np.eye(2), class_means=np.zeros((2, 2)),
+              rotations=np.stack([np.eye(2)] * 2), scalings=np.ones((2, 2)), log_priors=np.log([0.5, 0.5]))
+    QdaParameters(**ok)
+    with pytest.raises(ValueError, match="'scalings' holds non-finite"):
+        QdaParameters(**{**ok, "scalings": np.array([[1.0, np.nan], [1.0, 1.0]])})
+    with pytest.raises(ValueError, match="'class_means' has shape"):
+        QdaParameters(**{**ok, "class_means": np.zeros((3, 2))})
+    with pytest.raises(ValueError, match="class variances must be > 0"):
+        QdaParameters(**{**ok, "scalings": np.zeros((2, 2))})
 
 
 def test_reports_written_and_parseable(tmp_path):

@@ -16,6 +16,7 @@ from conftest import ROOT, SCHEMAS, SYNTHETIC, job_counts, run_snakemake
 from clothscope.features import (EXTRA_COLUMNS, concat_rows, config_hash, feature_row, feature_schema, features_job,
                                  load_fitted, load_truth, paper_feature_columns, unusable_row, write_rows)
 from clothscope.imageio import read_png, write_exr
+from clothscope.qda_model import load_model
 from clothscope.schema import load_schema, validate
 from clothscope.spectrum import SpectrumSettings, analyse_normal_map
 from clothscope.structure import LBP_COLUMNS, STRUCTURE_COLUMNS, StructureSettings
@@ -229,14 +230,16 @@ def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path)
     write_rows(rows, feature_schema(2, False), tmp_path / "table.parquet")
     physics = {r["image_id"]: str(tmp_path / "physics" / f"{r['image_id']}.json") for r in rows}
     out = classify_job(tmp_path / "table.parquet", ROOT / "config" / "physics.yaml", "truth", "auto", tmp_path / "reports",
-                       tmp_path / "qda.pkl", physics)
+                       tmp_path / "model", physics)
     assert out["accuracy"] is None and out["problems"]
     accuracy = json.loads((tmp_path / "reports" / "accuracy.json").read_text())
     assert accuracy["status"] == "not run" and "LOOCV" in accuracy["reason"]
     bad = json.loads((tmp_path / "physics" / "bad.json").read_text())
     assert bad["status"] == "failed" and bad["physics"] is None and bad["reason"] == "fit_normals: diverged"
     assert json.loads((tmp_path / "physics" / "q0.json").read_text())["physics"] is None
-    assert json.loads((tmp_path / "qda.pkl.meta.json").read_text())["status"] == "not trained"
+    assert json.loads((tmp_path / "model" / "model.json").read_text())["status"] == "not trained"
+    with pytest.raises(ValueError, match="model.json: model was not trained: LOOCV not run"):
+        load_model(tmp_path / "model")
 
 
 def test_photo_loader_reads_luminance_and_skips_rejected_photos(tmp_path):

@@ -13,10 +13,8 @@ for a class of two images or a feature that is constant within a class.
 """
 from __future__ import annotations
 
-import io
 import math
 import os
-import pickle
 import warnings
 from dataclasses import dataclass, field
 from numbers import Real
@@ -25,15 +23,14 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import sklearn
 from sklearn.discriminant_analysis import LinearDiscriminantAnalysis, QuadraticDiscriminantAnalysis
 from sklearn.model_selection import StratifiedKFold
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils._param_validation import Interval
 
-from . import __version__
 from .atomic import write_json, write_text, write_with
+from .qda_model import QdaModel, QdaParameters
 
 #: Smallest per-class variance along any principal axis, in units of the
 #: (training-set) standardised features. Keeps a class whose images agree
@@ -48,8 +45,6 @@ POSTERIOR_PREFIX = "p_"
 #: Feature spaces QDA can be fitted in: the standardised features as they are
 #: (the paper's), or their discriminant subspace (see :func:`make_qda`).
 SUBSPACES = ("none", "discriminant")
-#: Pickle protocol and payload marker of saved models.
-_MODEL_FORMAT = "clothscope-qda-model/1"
 
 
 class FlooredQDA(QuadraticDiscriminantAnalysis):
@@ -142,22 +137,6 @@ class LoocvResult:
     excluded: dict[str, list[str]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     selected: dict[str, int] = field(default_factory=dict)
-
-
-@dataclass
-class QdaModel:
-    """A QDA pipeline trained on every labelled row, with what it was trained on."""
-
-    pipeline: Pipeline
-    classes: list[str]
-    feature_columns: list[str]
-    dropped_columns: list[str]
-    reg: str | float
-    subspace: str
-    class_counts: dict[str, int]
-    excluded: dict[str, list[str]] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-    metadata: dict[str, Any] = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -343,6 +322,10 @@ def _posteriors(pipeline: Pipeline, X: np.ndarray, ids: list[str]) -> np.ndarray
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         proba = pipeline.predict_proba(X)
+    return _check_posteriors(proba, ids)
+
+
+def _check_posteriors(proba: np.ndarray, ids: list[str]) -> np.ndarray:
     bad = ~np.isfinite(proba).all(axis=1)
     if bad.any():
         raise ValueError(f"posteriors are not finite for image(s) {', '.join(np.asarray(ids)[bad])}: feature values too extreme")
@@ -599,12 +582,13 @@ def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | st
     pipeline = _fit(reg, X, y, notes, subspace)
     counts = pd.Series(y).value_counts()
     return QdaModel(
-        pipeline=pipeline,
+        parameters=QdaParameters.from_pipeline(pipeline),
         classes=[str(c) for c in pipeline.classes_],
         feature_columns=used,
         dropped_columns=dropped,
         reg=reg,
         subspace=subspace,
+        var_floor=VAR_FLOOR,
         class_counts={str(c): int(counts[c]) for c in pipeline.classes_},
         excluded=excluded,
         notes=notes,
@@ -617,7 +601,7 @@ def predict(model: QdaModel, table_rows: pd.DataFrame) -> pd.DataFrame:
     Parameters
     ----------
     model
-        From :func:`train_model` or :func:`load_model`.
+        From :func:`train_model` or :func:`clothscope.qda_model.load_model`.
     table_rows
         Rows with ``image_id`` and the model's feature columns.
 
@@ -635,79 +619,13 @@ def predict(model: QdaModel, table_rows: pd.DataFrame) -> pd.DataFrame:
         return pd.DataFrame(columns=out_columns)
     ids = table_rows["image_id"].astype(str).tolist()
     X = _features(table_rows, model.feature_columns, "rows to classify")
-    proba = _posteriors(model.pipeline, X, ids)
+    with np.errstate(all="ignore"):
+        proba = np.exp(model.parameters.log_posteriors(X))
+    _check_posteriors(proba, ids)
     result = pd.DataFrame({"image_id": ids, "predicted_class": [model.classes[k] for k in proba.argmax(axis=1)]})
     for k, c in enumerate(model.classes):
         result[posterior_column(c)] = proba[:, k]
     return result[out_columns]
-
-
-# --------------------------------------------------------------------------- persistence
-
-
-def model_metadata(model: QdaModel) -> dict[str, Any]:
-    """What a saved model records about itself (JSON-ready)."""
-    return {
-        "format": _MODEL_FORMAT,
-        "classes": list(model.classes),
-        "feature_columns": list(model.feature_columns),
-        "dropped_columns": list(model.dropped_columns),
-        "class_counts": dict(model.class_counts),
-        "excluded_classes": {c: list(ids) for c, ids in model.excluded.items()},
-        "reg": model.reg,
-        "subspace": model.subspace,
-        "var_floor": float(model.pipeline.named_steps["qda"].var_floor),
-        "notes": list(model.notes),
-        "sklearn_version": sklearn.__version__,
-        "clothscope_version": __version__,
-    }
-
-
-def metadata_path(path: str | os.PathLike[str]) -> Path:
-    """The JSON file saved beside a model: ``<model path>.meta.json``."""
-    path = Path(path)
-    return path.with_name(path.name + ".meta.json")
-
-
-def save_model(model: QdaModel, path: str | os.PathLike[str], metadata: dict[str, Any] | None = None) -> None:
-    """Pickle ``model`` to ``path`` and its metadata to ``<path>.meta.json``, both atomically.
-
-    ``metadata`` (caller's, JSON-ready) is stored under ``"metadata"`` beside
-    the model's own record (:func:`model_metadata`).
-    """
-    record = {**model_metadata(model), "metadata": dict(metadata or {})}
-    payload = {"format": _MODEL_FORMAT, "model": model, "record": record}
-    buffer = io.BytesIO()
-    pickle.dump(payload, buffer, protocol=pickle.HIGHEST_PROTOCOL)
-    data = buffer.getvalue()
-    write_with(path, lambda tmp: tmp.write_bytes(data))
-    write_json(metadata_path(path), record)
-
-
-def load_model(path: str | os.PathLike[str]) -> QdaModel:
-    """Load a model written by :func:`save_model`.
-
-    Unpickling runs code from the file: load only models you wrote. A model
-    saved with another scikit-learn version loads with a note and a warning.
-    """
-    path = Path(path)
-    try:
-        with path.open("rb") as handle:
-            payload = pickle.load(handle)
-    except FileNotFoundError:
-        raise ValueError(f"{path}: model file does not exist") from None
-    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError) as err:
-        raise ValueError(f"{path}: not a readable clothscope model: {err}") from None
-    if not (isinstance(payload, dict) and payload.get("format") == _MODEL_FORMAT and isinstance(payload.get("model"), QdaModel)):
-        raise ValueError(f"{path}: not a clothscope model file (expected format {_MODEL_FORMAT})")
-    model: QdaModel = payload["model"]
-    model.metadata = payload.get("record", {})
-    saved = model.metadata.get("sklearn_version")
-    if saved != sklearn.__version__:
-        message = f"{path}: saved with scikit-learn {saved}, loaded with {sklearn.__version__}"
-        model.notes.append(message)
-        warnings.warn(message, UserWarning, stacklevel=2)
-    return model
 
 
 # --------------------------------------------------------------------------- reports

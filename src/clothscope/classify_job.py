@@ -19,12 +19,12 @@ from typing import Any
 import pandas as pd
 
 from . import __version__
-from .atomic import write_json, write_text, write_with
-from .classify import (POSTERIOR_PREFIX, choose_columns, loocv, metadata_path, predict, save_model, split_labelled,
-                       train_model, write_reports)
+from .atomic import write_json, write_text
+from .classify import POSTERIOR_PREFIX, choose_columns, loocv, predict, split_labelled, train_model, write_reports
 from .feature_sets import classifier_candidates, inverse_rendering_gain, joined_table
 from .features import STATUS_OK, read_table
 from .physics import load_physics_table, physics_for
+from .qda_model import save_model, save_untrained
 
 
 def _posteriors(row: pd.Series) -> dict[str, float]:
@@ -56,10 +56,11 @@ def write_summary(reports_dir: str | os.PathLike[str], title: str, feature_set: 
 
 
 def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.PathLike[str], source: str, reg: float | str,
-                 reports_dir: str | os.PathLike[str], model_path: str | os.PathLike[str],
+                 reports_dir: str | os.PathLike[str], model_dir: str | os.PathLike[str],
                  physics_paths: dict[str, str], log: Any = None, feature_set: str = "auto",
                  comparison_csv: str | os.PathLike[str] | None = None,
-                 photo_table_path: str | os.PathLike[str] | None = None, subspace: str = "none") -> dict[str, Any]:
+                 photo_table_path: str | os.PathLike[str] | None = None, subspace: str = "none",
+                 settings: dict[str, Any] | None = None) -> dict[str, Any]:
     """Run the classifier stage for one normal source.
 
     Parameters
@@ -75,8 +76,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     reports_dir
         Receives ``accuracy.json``, ``confusion.{csv,png}``, ``per_class.csv``,
         ``predictions.csv`` and ``images.tsv`` (every image's status and prediction).
-    model_path
-        Where the all-labelled model is pickled (``<path>.meta.json`` beside it).
+    model_dir
+        Receives the all-labelled model as data (:func:`clothscope.qda_model.save_model`).
     physics_paths
         Image id to the physics JSON to write; every image of the table needs one.
     feature_set
@@ -88,6 +89,9 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         The ``photo`` feature table, joined to ``table_path`` by image id (the photo's feature sets need it).
     subspace
         Feature space of the QDA (:func:`clothscope.classify.make_qda`).
+    settings
+        The ``prepare``, ``fit``, ``features`` and ``variant`` config the table's images were
+        processed with; recorded in the model so that ``clothscope predict`` processes a photo alike.
     """
     tables = {source: read_table(table_path)}
     if photo_table_path and source != "photo":
@@ -125,14 +129,13 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         accuracy_line += f" The model for new photos uses `{chosen}`."
     write_summary(reports_dir, title, feature_set, accuracy_line, versus_photo_line(comparison_csv, source))
     if model is not None:
-        save_model(model, model_path, metadata={"normal_source": source, "feature_set": feature_set, "chosen_set": chosen,
+        save_model(model, model_dir, metadata={"normal_source": source, "feature_set": feature_set, "chosen_set": chosen,
                                                 "feature_table": str(table_path), **provenance,
-                                                "n_labelled": int(len(labelled)),
+                                                "n_labelled": int(len(labelled)), "settings": dict(settings or {}),
+                                                "physics_table": str(physics_path),
                                                 "loocv_accuracy": float(result.accuracy) if result is not None else None})
     else:
-        write_with(model_path, lambda tmp: tmp.write_bytes(b""))
-        write_json(metadata_path(model_path), {"status": "not trained", "reason": "; ".join(problems),
-                                               "normal_source": source, **provenance})
+        save_untrained(model_dir, "; ".join(problems), {"normal_source": source, **provenance})
 
     loo = result.predictions.set_index("image_id") if result is not None else pd.DataFrame(columns=["predicted_class"])
     query_ids = set(query_predictions["image_id"].astype(str))

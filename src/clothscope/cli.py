@@ -1,4 +1,4 @@
-"""Command line: ``clothscope sheet`` and ``clothscope synthesize``.
+"""Command line: ``clothscope predict``, ``clothscope sheet`` and ``clothscope synthesize``.
 
 Errors are printed as one line (``clothscope: error: ...``) with exit code 2.
 """
@@ -9,8 +9,9 @@ import sys
 import time
 from pathlib import Path
 
-from .atomic import write_text
 import pandas as pd
+
+from .atomic import write_text
 
 from .samples import COLUMNS, sheet_from_folder, sheet_to_tsv
 from .schema import InputError
@@ -47,9 +48,59 @@ def cmd_synthesize(args: argparse.Namespace) -> None:
     print(f"total\t{time.perf_counter() - started:.1f} s")
 
 
+def cmd_predict(args: argparse.Namespace) -> int:
+    """Classify photos with a trained model; one line per photo. Exit 1 when no photo could be classified."""
+    import logging
+
+    from tqdm import tqdm
+
+    from .predict import STAGES, Prediction, model_sources, predict_photo, unique_ids
+    from .qda_model import load_model
+
+    model = load_model(args.model)
+    physics = args.physics or model.metadata.get("metadata", {}).get("physics_table") or "config/physics.yaml"
+    out = Path(args.out)
+    log_path = out / "predict.log"
+    out.mkdir(parents=True, exist_ok=True)
+    log = logging.getLogger("clothscope.predict")
+    log.handlers[:] = [logging.FileHandler(log_path, encoding="utf-8")]
+    log.setLevel(logging.INFO)
+    log.propagate = False
+    stages = [s for s in STAGES if "fitted" in model_sources(model) or not s.startswith("fit_")]
+    results: list[Prediction] = []
+    for photo, image_id in zip(args.photos, unique_ids(args.photos)):
+        with tqdm(total=len(stages), desc=image_id, unit="stage", leave=False, disable=args.quiet) as bar:
+            def step(stage: str) -> None:
+                bar.n = stages.index(stage)
+                bar.set_postfix_str(stage)
+
+            try:
+                result = predict_photo(photo, image_id, model, physics, out, args.threads, log, step)
+            except (ValueError, OSError) as err:
+                result = Prediction(photo, image_id, None, None, None, str(err).splitlines()[0])
+        results.append(result)
+        if result.predicted_class is None:
+            print(f"{photo}\tnot classified\t{result.reason}", flush=True)
+        else:
+            print(f"{photo}\t{result.predicted_class}\t{result.posterior:.3f}\t{result.physics_path}", flush=True)
+    return 0 if any(r.predicted_class for r in results) else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="clothscope", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
+    pred = commands.add_parser("predict", help="fabric class and physics of photos, with a model the workflow trained",
+                               description="Prints one line per photo: photo, class, posterior, physics JSON "
+                                           "(or 'not classified' and the reason).")
+    pred.add_argument("photos", nargs="+", metavar="PHOTO")
+    pred.add_argument("--model", default="results/models/fitted",
+                      help="folder with model.json and model.npz, written by the workflow's classify rule "
+                           "(default: results/models/fitted; make it with: snakemake --cores 2)")
+    pred.add_argument("--out", default="predictions", help="receives one folder per photo (default: predictions)")
+    pred.add_argument("--physics", help="fabric class -> ArcSim table (default: the one the model was trained with)")
+    pred.add_argument("--threads", type=int, default=None, help="Dr.Jit threads of the fit (default: all cores)")
+    pred.add_argument("--quiet", action="store_true", help="no progress bars")
+    pred.set_defaults(func=cmd_predict)
     sheet = commands.add_parser("sheet", help="build a sample sheet from <root>/<class>/<image>")
     sheet.add_argument("root", help="folder whose sub-folders are fabric classes")
     sheet.add_argument("-o", "--output", help="write the TSV here instead of standard output")
@@ -74,11 +125,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        args.func(args)
+        return int(args.func(args) or 0)
     except (InputError, ValueError, OSError) as err:
         print(f"clothscope: error: {err}", file=sys.stderr)
         return 2
-    return 0
 
 
 if __name__ == "__main__":

@@ -13,9 +13,16 @@ The transformed photos are prepared, **refitted** and described by the
 workflow (``--config samples=... results=<out>/run``). A prediction counts as
 changed when the model trained on all *other* original images (the main run's
 feature tables) predicts another class for the transformed photo than for the
-original. Needs the main run's ``fitted`` and ``photo`` feature tables.
+original. The model is the configured classifier (``classify.reg`` and
+``classify.subspace``); an ``auto`` set, and ``record`` (the classifier of
+record: ``classify.feature_set`` on fitted maps with the photo beside them),
+choose their columns on those other images as the ``classify`` rule does.
+Needs the main run's ``fitted`` and ``photo`` feature tables.
 
-    .venv/bin/python workflow/benchmarks/invariance_fitted.py [--images a,b|all] [--out results/bench/invariance]
+    .venv/bin/python workflow/benchmarks/invariance_fitted.py [--images a,b|all] [--out results/bench/invariance] [--features-only]
+
+``--features-only`` reuses the run folder's fits and recomputes only the
+feature rows (after a change to the features, not to the fit).
 
 Writes ``<out>/invariance_fitted.csv`` (one row per feature set and
 transformation) and ``<out>/invariance_fitted.md``.
@@ -29,8 +36,10 @@ import numpy as np
 import pandas as pd
 from harness import ROOT, publish, snakemake, write_sheet
 
-from clothscope.classify import make_qda
-from clothscope.feature_sets import FEATURE_SETS, common_images, joined_features
+from class_subsets import classify_config
+
+from clothscope.classify import choose_columns, predict, train_model
+from clothscope.feature_sets import FEATURE_SETS, auto_candidates, classifier_candidates, common_images, joined_features
 from clothscope.imageio import decode_image, linear_to_srgb, write_png
 from clothscope.invariance import PHOTO_TRANSFORMS
 
@@ -38,7 +47,10 @@ from clothscope.invariance import PHOTO_TRANSFORMS
 PAIRS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet")
                  for d in ("red", "navy"))
 #: feature sets whose invariance is measured (the sources both exist for transformed photos)
-SETS = ("structure_brdf_fitted", "paper_fitted", "fitted_plus_photo", "structure_photo", "lbp_photo", "paper_photo")
+SETS = ("record", "auto_fitted", "texture_brdf_fitted", "structure_brdf_fitted", "paper_fitted", "auto_photo", "lbp_photo",
+        "structure_photo")
+#: the feature set standing for the classifier of record's sources (fitted maps, the photo beside them)
+RECORD_SOURCES = "fitted_plus_photo"
 
 
 def transformed_sheet(sheet: pd.DataFrame, out: Path) -> pd.DataFrame:
@@ -55,24 +67,37 @@ def transformed_sheet(sheet: pd.DataFrame, out: Path) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=sheet.columns)
 
 
-def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], transformed: dict[str, pd.DataFrame],
-                        images: list[str], transform: str) -> dict[str, object]:
-    """Train on all other originals, predict each chosen original and its transformed photo; count changes."""
+def candidates_of(feature_set: str, columns: list[str], settings: dict) -> dict[str, list[str]]:
+    """The column sets a model of ``feature_set`` chooses from (one set unless it is ``auto`` or ``record``)."""
+    if feature_set == "record":
+        return classifier_candidates(settings["feature_set"], "fitted", columns)
     spec = next(s for s in FEATURE_SETS if s.name == feature_set)
+    auto = [source for source, group in spec.parts if group == "auto"]
+    return auto_candidates(columns, auto[0]) if auto else {feature_set: columns}
+
+
+def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], transformed: dict[str, pd.DataFrame],
+                        images: list[str], transform: str, settings: dict) -> dict[str, object]:
+    """Train on all other originals, predict each chosen original and its transformed photo; count changes."""
+    spec = next(s for s in FEATURE_SETS if s.name == (RECORD_SOURCES if feature_set == "record" else feature_set))
     frame, columns = joined_features(spec, originals, common_images({s: originals[s] for s in spec.sources}))
+    if feature_set == "record":
+        columns = [c for c in frame.columns if c.split(".", 1)[0] in spec.sources]
     t_ids = [f"{i}__{transform}" for i in images]
     usable_now = set(common_images({s: transformed[s] for s in spec.sources}))
     ok = [t for t in t_ids if t in usable_now]
     t_frame, _ = joined_features(spec, transformed, ok)
-    X, y = frame[columns].to_numpy(float), frame["fabric_class"].to_numpy(object)
+    reg, subspace = settings["reg"], settings["subspace"]
     changed, wrong = 0, 0
-    for t_id, t_row in zip(ok, t_frame[columns].to_numpy(float)):
+    for t_id in ok:
         original = t_id.rsplit("__", 1)[0]
-        keep = frame["image_id"].to_numpy() != original
-        model = make_qda().fit(X[keep], y[keep])
-        before, after = model.predict(np.vstack([X[~keep][0], t_row]))
+        others = frame[frame["image_id"] != original]
+        candidates = candidates_of(feature_set, columns, settings)
+        model = train_model(others, candidates[choose_columns(others, candidates, reg, subspace)[0]], reg, subspace)
+        pair = pd.concat([frame[frame["image_id"] == original], t_frame[t_frame["image_id"] == t_id]], ignore_index=True)
+        before, after = predict(model, pair)["predicted_class"]
         changed += int(before != after)
-        wrong += int(after != y[~keep][0])
+        wrong += int(after != pair["fabric_class"].iloc[0])
     return {"feature_set": feature_set, "transform": transform, "n": len(ok), "changed": changed,
             "change_rate": changed / len(ok) if ok else 0.0, "wrong_after": wrong, "not_usable": len(t_ids) - len(ok)}
 
@@ -81,20 +106,26 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--images", default=PAIRS, help="comma-separated image ids, or 'all'")
     parser.add_argument("--out", default="results/bench/invariance")
+    parser.add_argument("--features-only", action="store_true", help="reuse the run's fits; recompute the feature rows")
     args = parser.parse_args()
+    settings = classify_config()
     out = (ROOT / args.out).resolve()
     sheet = pd.read_csv(write_sheet(args.images.split(","), out / "originals.tsv"), sep="\t", dtype=str, keep_default_na=False)
     transformed_sheet(sheet, out).to_csv(out / "samples.tsv", sep="\t", index=False)
     run = out / "run"
-    seconds = snakemake(["--config", f"samples={out / 'samples.tsv'}", f"results={run}", "--quiet", "all", "--",
+    reuse = ["--rerun-triggers", "mtime", "--forcerun", "features"] if args.features_only else []
+    seconds = snakemake(["--config", f"samples={out / 'samples.tsv'}", f"results={run}", "--quiet", *reuse, "all", "--",
                          *(str(run / "features" / s / "table.parquet") for s in ("fitted", "photo"))])
     originals = {s: pd.read_parquet(ROOT / "results" / "features" / s / "table.parquet") for s in ("fitted", "photo")}
     transformed = {s: pd.read_parquet(run / "features" / s / "table.parquet") for s in ("fitted", "photo")}
     images = list(sheet["image_id"])
-    table = pd.DataFrame([changed_predictions(f, originals, transformed, images, t) for f in SETS for t in PHOTO_TRANSFORMS])
+    table = pd.DataFrame([changed_predictions(f, originals, transformed, images, t, settings)
+                          for f in SETS for t in PHOTO_TRANSFORMS])
     lines = ["# Invariance of predictions to the photo's rotation, zoom and colour (refitted)", "",
              f"{len(images)} images x {len(PHOTO_TRANSFORMS)} transformations, prepared, fitted and described by the "
-             f"workflow in {seconds / 60:.1f} min (2 cores). Changed: the model trained on every other original image "
+             f"workflow in {seconds / 60:.1f} min (2 cores{', fits reused' if args.features_only else ''}). "
+             f"Classifier: QDA, subspace `{settings['subspace']}`, shrinkage `{settings['reg']}`; `record` is "
+             f"`{settings['feature_set']}` on fitted maps with the photo beside them. Changed: the model trained on every other original image "
              "predicts another class for the transformed photo than for the original. rotate30 keeps the valid centre, "
              "which the prepare stage resizes, so it also magnifies by 1.41.", "",
              "| feature set | transform | changed | rate | wrong after |", "|---|---|---|---|---|"]

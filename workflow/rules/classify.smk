@@ -14,14 +14,15 @@ rule classify:
         photo=lambda wildcards: [] if wildcards.source == "photo" else feature_table("photo"),
     output:
         reports=[reports_path("{source}", name) for name in CLASSIFY_REPORTS],
-        model=os.path.join(RESULTS, "models", "{source}", "qda.pkl"),
-        model_meta=os.path.join(RESULTS, "models", "{source}", "qda.pkl.meta.json"),
+        model_arrays=os.path.join(RESULTS, "models", "{source}", "model.npz"),
+        model_record=os.path.join(RESULTS, "models", "{source}", "model.json"),
         physics=[os.path.join(RESULTS, "physics", "{source}", f"{image}.json") for image in IMAGE_IDS],
     params:
         reg=config["classify"]["reg"],
         subspace=config["classify"]["subspace"],
         images=IMAGE_IDS,
         feature_set=config["classify"]["feature_set"],
+        settings={key: config[key] for key in ("prepare", "fit", "features", "variant")},
     log:
         os.path.join(RESULTS, "logs", "classify", "{source}.log"),
     threads: 1

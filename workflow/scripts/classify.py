@@ -11,11 +11,12 @@ with job_log(snakemake.log[0], "classify") as log:
         snakemake.wildcards.source,
         snakemake.params.reg,
         os.path.dirname(snakemake.output.reports[0]),
-        snakemake.output.model,
+        os.path.dirname(snakemake.output.model_arrays),
         dict(zip(snakemake.params.images, snakemake.output.physics)),
         log,
         feature_set=snakemake.params.feature_set,
         subspace=snakemake.params.subspace,
+        settings=snakemake.params.settings,
         comparison_csv=snakemake.input.get("comparison") or None,
         photo_table_path=snakemake.input.get("photo") or None,
     )

@@ -15,7 +15,7 @@ times the image's derivative, and at thread scale the residual is mostly the
 forward render's own noise; Adam scales its steps down by that noise, so the
 roughness drifts to its optimum too slowly. Extra forward samples cost about
 half what extra gradient samples do, and on the synthetic set only they
-helped (README, "Inverse renderer").
+helped (docs/design.md, "Roughness: the joint phase and its samples").
 
 With ``albedo_weight > 0`` the base colour becomes a texture: the material
 colour times a per-texel *shade* ``s`` in (0, 1 / s0) (a logistic latent,

@@ -1,0 +1,126 @@
+"""``clothscope predict``: fabric class and physics of photos, with a model the workflow trained.
+
+Each photo goes through the workflow's own stage functions in this process:
+prepare, the three fit stages (only when the model reads fitted-map
+features), the feature rows of the sources the model reads, the model's
+posteriors and the ArcSim physics. The settings are the ones the model was
+trained with (its record), so a photo's features are computed the way the
+training images' were.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from .atomic import write_json
+from .classify import posterior_column, predict
+from .feature_sets import joined_table
+from .features import STATUS_OK, features_job
+from .physics import load_physics_table, physics_for
+from .prepare import PrepareSettings, prepare_image
+from .qda_model import QdaModel
+from .structure import StructureSettings
+
+#: Stages of one photo, in order (the progress bar counts them).
+STAGES = ("prepare", "fit_geometry", "fit_material", "fit_normals", "features", "classify")
+
+
+@dataclass
+class Prediction:
+    """What ``predict`` found for one photo: a class, or the reason there is none."""
+
+    photo: str
+    image_id: str
+    predicted_class: str | None
+    posterior: float | None
+    physics_path: str | None
+    reason: str = ""
+
+
+def model_sources(model: QdaModel) -> list[str]:
+    """Feature sources the model's columns (``<source>.<column>``) come from, its own normal source first."""
+    own = str(model.metadata.get("metadata", {}).get("normal_source", ""))
+    prefixes = sorted({c.split(".", 1)[0] for c in model.feature_columns})
+    return sorted(prefixes, key=lambda source: source != own)
+
+
+def training_settings(model: QdaModel) -> dict[str, Any]:
+    """The prepare, fit and features settings (and Mitsuba variant) the model's training images were processed with."""
+    settings = model.metadata.get("metadata", {}).get("settings")
+    if not isinstance(settings, dict) or not {"prepare", "fit", "features", "variant"} <= set(settings):
+        raise ValueError("model record lacks the settings its images were processed with; retrain it with the workflow")
+    return settings
+
+
+def unique_ids(photos: list[str]) -> list[str]:
+    """An image id per photo (its file stem, made safe and unique)."""
+    ids: list[str] = []
+    for photo in photos:
+        stem = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(photo).stem).lstrip("._-") or "photo"
+        candidate, n = stem, 2
+        while candidate in ids:
+            candidate, n = f"{stem}_{n}", n + 1
+        ids.append(candidate)
+    return ids
+
+
+def _fit(prepared: Path, work: Path, settings: dict[str, Any], threads: int, log: logging.Logger,
+         step: Callable[[str], None]) -> Path:
+    """The three fit stages of one photo; returns the normals folder (its state says if a stage failed)."""
+    from .fit import jobs
+    from .fit.geometry import GeometrySettings
+    from .fit.material import MaterialSettings
+    from .fit.normals import NormalSettings
+
+    fit = settings["fit"]
+    common = {"variant": settings["variant"], "threads": threads, "full_effects": fit["full_effects"], "log": log}
+    step("fit_geometry")
+    jobs.geometry_job(str(prepared), str(work / "geometry"), GeometrySettings(**fit["geometry"]), **common)
+    step("fit_material")
+    jobs.material_job(str(prepared), str(work / "geometry"), str(work / "material"), MaterialSettings(**fit["material"]), **common)
+    step("fit_normals")
+    jobs.normals_job(str(prepared), str(work / "material"), str(work / "normals"), NormalSettings(**fit["normals"]), **common)
+    return work / "normals"
+
+
+def predict_photo(photo: str, image_id: str, model: QdaModel, physics_path: str | os.PathLike[str], out: Path,
+                  threads: int, log: logging.Logger, step: Callable[[str], None]) -> Prediction:
+    """Prepare, fit (when the model needs it), featurise and classify one photo into ``out/<image_id>/``."""
+    settings = training_settings(model)
+    work = out / image_id
+    step("prepare")
+    record = prepare_image(image_id, photo, work / "prepared", PrepareSettings(**settings["prepare"]),
+                           StructureSettings(**settings["features"]["structure"]))
+    if record["status"] != "accepted":
+        return Prediction(photo, image_id, None, None, None, record["reason"])
+    sources = model_sources(model)
+    dirs = {"photo": work / "prepared"}
+    if "fitted" in sources:
+        dirs["fitted"] = _fit(work / "prepared", work / "fit", settings, threads, log, step)
+    step("features")
+    tables = {}
+    for source in sources:
+        if source not in dirs:
+            raise ValueError(f"model reads {source!r} features, which a photo does not have")
+        row = features_job(image_id, None, source, photo, str(dirs[source]), settings["features"],
+                           str(work / "features" / f"{source}.parquet"), str(work / "features" / f"{source}.png"))
+        tables[source] = pd.DataFrame([row])
+    step("classify")
+    table = joined_table(tables)
+    row = table.iloc[0]
+    if row["status"] != STATUS_OK:
+        return Prediction(photo, image_id, None, None, None, f"{photo}: {row['reason']}")
+    result = predict(model, table).iloc[0]
+    posteriors = {c: float(result[posterior_column(c)]) for c in model.classes}
+    target = work / "physics.json"
+    write_json(target, {"image_id": image_id, "photo": str(photo), "predicted_class": str(result["predicted_class"]),
+                        "posteriors": posteriors, "model": model.metadata.get("arrays_sha256"),
+                        "physics": physics_for(posteriors, load_physics_table(physics_path))})
+    return Prediction(photo, image_id, str(result["predicted_class"]), max(posteriors.values()), str(target))

@@ -1,0 +1,227 @@
+"""The trained classifier as data: arrays in ``model.npz`` and a JSON record in ``model.json``.
+
+A model file never runs code when loaded: the arrays are read with
+``numpy.load(allow_pickle=False)`` and the record is plain JSON. The record
+names the format, the classes, the feature columns, the settings and the
+SHA-256 of the arrays file, so a record and arrays from different runs, or a
+file that is not a model, are refused with one line.
+
+The arrays hold everything a posterior needs (:class:`QdaParameters`):
+standardisation, the optional discriminant projection, and each class's
+mean, covariance eigenvectors and eigenvalues and prior.
+"""
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import zipfile
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.special import logsumexp
+
+from . import __version__
+from .atomic import write_json, write_with
+
+#: Marker of the record of a saved model; a record with another is refused.
+MODEL_FORMAT = "clothscope-qda-model/2"
+#: File names of a saved model inside its folder.
+ARRAYS_NAME = "model.npz"
+RECORD_NAME = "model.json"
+
+
+@dataclass(frozen=True)
+class QdaParameters:
+    """What a fitted QDA pipeline computes posteriors from, as arrays.
+
+    ``d`` features, ``k`` dimensions after projection (``k == d`` without one),
+    ``C`` classes. Posteriors follow scikit-learn's QDA (eigen solver): the
+    features are standardised (``mean``, ``scale``), projected (``projection``,
+    ``d x k``), and class ``c`` scores ``log prior - (log det + Mahalanobis²) / 2``
+    with covariance ``rotations[c] @ diag(scalings[c]) @ rotations[c].T``.
+    """
+
+    mean: np.ndarray         # (d,)
+    scale: np.ndarray        # (d,)
+    projection: np.ndarray   # (d, k)
+    class_means: np.ndarray  # (C, k)
+    rotations: np.ndarray    # (C, k, k)
+    scalings: np.ndarray     # (C, k)
+    log_priors: np.ndarray   # (C,)
+
+    def __post_init__(self) -> None:
+        d, k = self.projection.shape if self.projection.ndim == 2 else (-1, -1)
+        n_classes = self.log_priors.shape[0] if self.log_priors.ndim == 1 else -1
+        expected = {"mean": (d,), "scale": (d,), "projection": (d, k), "class_means": (n_classes, k),
+                    "rotations": (n_classes, k, k), "scalings": (n_classes, k), "log_priors": (n_classes,)}
+        for name, shape in expected.items():
+            array = getattr(self, name)
+            if not isinstance(array, np.ndarray) or array.dtype.kind != "f" or array.shape != shape or min(shape) < 1:
+                raise ValueError(f"array {name!r} has shape {getattr(array, 'shape', None)}, expected {shape} of floats")
+            if not np.isfinite(array).all():
+                raise ValueError(f"array {name!r} holds non-finite values")
+        if not ((self.scale > 0).all() and (self.scalings > 0).all()):
+            raise ValueError("scales and class variances must be > 0")
+
+    @property
+    def n_features(self) -> int:
+        """Number of input feature columns."""
+        return int(self.mean.shape[0])
+
+    @classmethod
+    def from_pipeline(cls, pipeline: Any) -> QdaParameters:
+        """Read the arrays of a fitted :func:`clothscope.classify.make_qda` pipeline."""
+        scaler, qda = pipeline.named_steps["scale"], pipeline.named_steps["qda"]
+        project = pipeline.named_steps.get("project")
+        d = scaler.mean_.shape[0]
+        projection = np.eye(d) if project is None else project.scalings_[:, : project._max_components]
+        return cls(
+            mean=np.asarray(scaler.mean_, float), scale=np.asarray(scaler.scale_, float),
+            projection=np.asarray(projection, float), class_means=np.asarray(qda.means_, float),
+            rotations=np.stack(qda.rotations_).astype(float), scalings=np.stack(qda.scalings_).astype(float),
+            log_priors=np.log(np.asarray(qda.priors_, float)),
+        )
+
+    def log_posteriors(self, X: np.ndarray) -> np.ndarray:
+        """Log class posteriors of the rows of ``X`` (``n x d``); each row's exponentials sum to 1."""
+        Z = ((np.asarray(X, float) - self.mean) / self.scale) @ self.projection
+        scores = np.empty((Z.shape[0], self.log_priors.shape[0]))
+        for c in range(self.log_priors.shape[0]):
+            whitened = (Z - self.class_means[c]) @ (self.rotations[c] / np.sqrt(self.scalings[c]))
+            scores[:, c] = self.log_priors[c] - 0.5 * (np.sum(whitened**2, axis=1) + np.sum(np.log(self.scalings[c])))
+        return scores - logsumexp(scores, axis=1, keepdims=True)
+
+
+@dataclass
+class QdaModel:
+    """A QDA trained on every labelled row, with what it was trained on."""
+
+    parameters: QdaParameters
+    classes: list[str]
+    feature_columns: list[str]
+    dropped_columns: list[str]
+    reg: str | float
+    subspace: str
+    var_floor: float
+    class_counts: dict[str, int]
+    excluded: dict[str, list[str]] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if len(self.classes) != self.parameters.log_priors.shape[0]:
+            raise ValueError(f"{len(self.classes)} class names for {self.parameters.log_priors.shape[0]} classes of arrays")
+        if len(self.feature_columns) != self.parameters.n_features:
+            raise ValueError(f"{len(self.feature_columns)} feature columns for arrays of {self.parameters.n_features} features")
+
+
+def _record(model: QdaModel, arrays_sha256: str, metadata: dict[str, Any]) -> dict[str, Any]:
+    return {
+        "format": MODEL_FORMAT,
+        "status": "trained",
+        "classes": list(model.classes),
+        "feature_columns": list(model.feature_columns),
+        "dropped_columns": list(model.dropped_columns),
+        "class_counts": dict(model.class_counts),
+        "excluded_classes": {c: list(ids) for c, ids in model.excluded.items()},
+        "reg": model.reg,
+        "subspace": model.subspace,
+        "var_floor": float(model.var_floor),
+        "notes": list(model.notes),
+        "arrays": ARRAYS_NAME,
+        "arrays_sha256": arrays_sha256,
+        "clothscope_version": __version__,
+        "metadata": dict(metadata),
+    }
+
+
+def _arrays_bytes(parameters: QdaParameters) -> bytes:
+    buffer = io.BytesIO()
+    np.savez(buffer, **{f.name: getattr(parameters, f.name) for f in fields(parameters)})
+    return buffer.getvalue()
+
+
+def save_model(model: QdaModel, folder: str | os.PathLike[str], metadata: dict[str, Any] | None = None) -> None:
+    """Write ``model`` to ``folder/model.npz`` (arrays) and ``folder/model.json`` (record), each atomically.
+
+    ``metadata`` (the caller's, JSON-ready) is stored under ``"metadata"`` in the record.
+    """
+    data = _arrays_bytes(model.parameters)
+    folder = Path(folder)
+    write_with(folder / ARRAYS_NAME, lambda tmp: tmp.write_bytes(data))
+    write_json(folder / RECORD_NAME, _record(model, hashlib.sha256(data).hexdigest(), metadata or {}))
+
+
+def save_untrained(folder: str | os.PathLike[str], reason: str, metadata: dict[str, Any] | None = None) -> None:
+    """Write the files of :func:`save_model` for a model that could not be trained, saying why."""
+    folder = Path(folder)
+    write_with(folder / ARRAYS_NAME, lambda tmp: tmp.write_bytes(b""))
+    write_json(folder / RECORD_NAME, {"format": MODEL_FORMAT, "status": "not trained", "reason": reason,
+                                      "metadata": dict(metadata or {})})
+
+
+def _read_record(path: Path) -> dict[str, Any]:
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ValueError(f"{path}: model record does not exist (train a model with the workflow's classify rule)") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ValueError(f"{path}: not a readable model record ({type(err).__name__})") from None
+    if not isinstance(record, dict) or record.get("format") != MODEL_FORMAT:
+        raise ValueError(f"{path}: not a clothscope model record (expected format {MODEL_FORMAT})")
+    if record.get("status") != "trained":
+        raise ValueError(f"{path}: model was not trained: {record.get('reason', 'no reason recorded')}")
+    return record
+
+
+def _read_arrays(path: Path, sha256: Any) -> QdaParameters:
+    try:
+        data = path.read_bytes()
+    except OSError:
+        raise ValueError(f"{path}: model arrays file cannot be read") from None
+    if hashlib.sha256(data).hexdigest() != sha256:
+        raise ValueError(f"{path}: arrays do not match the record beside them (SHA-256 differs)")
+    names = [f.name for f in fields(QdaParameters)]
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as archive:
+            missing = sorted(set(names) - set(archive.files))
+            if missing:
+                raise ValueError(f"{path}: model arrays lack {', '.join(missing)}")
+            return QdaParameters(**{name: archive[name] for name in names})
+    except (OSError, zipfile.BadZipFile) as err:
+        raise ValueError(f"{path}: not a model arrays file ({type(err).__name__})") from None
+    except ValueError as err:
+        message = str(err)
+        raise ValueError(message if message.startswith(str(path)) else f"{path}: {message}") from None
+
+
+def load_model(folder: str | os.PathLike[str]) -> QdaModel:
+    """Load a model written by :func:`save_model` from its folder, validating record and arrays.
+
+    Raises
+    ------
+    ValueError
+        One line naming the file and the problem: missing, not a model, not
+        trained, arrays that do not match the record or are malformed.
+    """
+    folder = Path(folder)
+    record = _read_record(folder / RECORD_NAME)
+    parameters = _read_arrays(folder / ARRAYS_NAME, record.get("arrays_sha256"))
+    try:
+        return QdaModel(
+            parameters=parameters, classes=[str(c) for c in record["classes"]],
+            feature_columns=[str(c) for c in record["feature_columns"]],
+            dropped_columns=[str(c) for c in record.get("dropped_columns", [])], reg=record["reg"],
+            subspace=str(record["subspace"]), var_floor=float(record["var_floor"]),
+            class_counts={str(k): int(v) for k, v in record["class_counts"].items()},
+            excluded={str(k): list(v) for k, v in record.get("excluded_classes", {}).items()},
+            notes=list(record.get("notes", [])), metadata=record,
+        )
+    except (KeyError, TypeError, AttributeError) as err:
+        raise ValueError(f"{folder / RECORD_NAME}: model record lacks or garbles {err}") from None
+    except ValueError as err:
+        raise ValueError(f"{folder / RECORD_NAME}: {err}") from None

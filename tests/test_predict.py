@@ -1,0 +1,115 @@
+"""``clothscope predict``: photos in, one line each out, with a model the workflow's classify stage saves."""
+from __future__ import annotations
+
+import json
+import math
+
+import pandas as pd
+import pytest
+import yaml
+from conftest import ROOT, SCHEMAS, SYNTHETIC
+
+from clothscope.cli import main
+from clothscope.classify import train_model
+from clothscope.feature_sets import classifier_candidates, joined_table
+from clothscope.features import features_job
+from clothscope.predict import model_sources, unique_ids
+from clothscope.prepare import PrepareSettings, prepare_image
+from clothscope.qda_model import load_model, save_model
+from clothscope.schema import apply_preset, load_schema, validate
+from clothscope.structure import StructureSettings
+
+CLASSES = ("canvas", "satin", "velvet")
+TRAIN_COLORS = ("charcoal", "green", "ivory", "mustard")
+HELD_OUT = SYNTHETIC / "satin" / "satin_red.png"
+
+
+def default_settings() -> dict:
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    config = validate(apply_preset(config, ROOT / "config" / "presets"), load_schema(SCHEMAS / "config.schema.yaml"), "config")
+    return {key: config[key] for key in ("prepare", "fit", "features", "variant")}
+
+
+@pytest.fixture(scope="module")
+def photo_model(tmp_path_factory):
+    """A model on photo-only LBP features of 12 embedded images, saved as the classify rule saves one."""
+    work = tmp_path_factory.mktemp("train")
+    settings = default_settings()
+    rows = []
+    for fabric in CLASSES:
+        for color in TRAIN_COLORS:
+            image_id, path = f"{fabric}_{color}", SYNTHETIC / fabric / f"{fabric}_{color}.png"
+            prepare_image(image_id, path, work / image_id, PrepareSettings(**settings["prepare"]),
+                          StructureSettings(**settings["features"]["structure"]))
+            rows.append(features_job(image_id, fabric, "photo", str(path), str(work / image_id), settings["features"],
+                                     str(work / f"{image_id}.parquet"), str(work / f"{image_id}.png")))
+    table = joined_table({"photo": pd.DataFrame(rows)})
+    columns = classifier_candidates("lbp", "photo", table.columns)["lbp"]
+    folder = work / "model"
+    save_model(train_model(table, columns, "auto", "discriminant"), folder,
+               {"normal_source": "photo", "settings": settings, "physics_table": str(ROOT / "config" / "physics.yaml")})
+    return folder
+
+
+def test_predict_prints_a_class_per_photo_and_a_reason_per_bad_one(photo_model, tmp_path, capsys):
+    bad = tmp_path / "notes.png"
+    bad.write_text("not an image")
+    code = main(["predict", str(HELD_OUT), str(bad), str(tmp_path / "missing.jpg"), "--model", str(photo_model),
+                 "--out", str(tmp_path / "out"), "--quiet"])
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert code == 0 and len(lines) == 3
+    photo, predicted, posterior, physics_path = lines[0].split("\t")
+    assert photo == str(HELD_OUT) and predicted in CLASSES and 0 < float(posterior) <= 1
+    record = json.loads(open(physics_path).read())
+    assert record["predicted_class"] == predicted and math.isclose(sum(record["posteriors"].values()), 1.0)
+    assert record["physics"]["parameters"]["bending"] and not list((tmp_path / "out").rglob(".*tmp*"))
+    assert lines[1].startswith(f"{bad}\tnot classified\t{bad}") and "\n" not in lines[1]
+    assert lines[2].startswith(f"{tmp_path / 'missing.jpg'}\tnot classified\t") and "does not exist" in lines[2]
+    assert not (tmp_path / "out" / "satin_red" / "fit").exists(), "a photo-feature model must not run the fit"
+
+
+def test_predict_fails_only_when_no_photo_is_classified(photo_model, tmp_path, capsys):
+    bad = tmp_path / "empty.png"
+    bad.write_bytes(b"")
+    assert main(["predict", str(bad), "--model", str(photo_model), "--out", str(tmp_path / "out"), "--quiet"]) == 1
+    assert "not classified" in capsys.readouterr().out
+
+
+def test_predict_without_a_model_says_how_to_make_one(tmp_path, capsys):
+    assert main(["predict", str(HELD_OUT), "--model", str(tmp_path / "none"), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("clothscope: error: ") and "classify rule" in err and len(err.splitlines()) == 1
+
+
+def test_model_sources_puts_the_models_own_source_first(photo_model):
+    model = load_model(photo_model)
+    assert model_sources(model) == ["photo"]
+    model.feature_columns = ["photo.s_a", "fitted.s_a"]
+    model.metadata["metadata"]["normal_source"] = "fitted"
+    assert model_sources(model) == ["fitted", "photo"]
+
+
+def test_unique_ids_are_safe_and_distinct():
+    assert unique_ids(["a/x y.png", "b/x y.png", "c/.hidden.jpg"]) == ["x_y", "x_y_2", "hidden"]
+
+
+@pytest.mark.slow
+def test_predict_fits_the_photo_when_the_model_reads_fitted_maps(photo_model, tmp_path, capsys):
+    """A model over fitted-map columns runs the three fit stages (tiny settings) before its features."""
+    model = load_model(photo_model)
+    settings = model.metadata["metadata"]["settings"]
+    tiny = {"geometry": {"resolution": 32, "spp": 2, "iterations": 3},
+            "material": {"resolution": 32, "spp": 1, "iterations": 2},
+            "normals": {"resolution": 64, "texture": 64, "spp": 1, "spp_grad": 1, "iterations": 2, "joint_iterations": 2}}
+    for stage, knobs in tiny.items():
+        settings["fit"][stage].update(knobs)
+    model.feature_columns = [c.replace("photo.", "fitted.") for c in model.feature_columns]
+    folder = tmp_path / "fitted_model"
+    save_model(model, folder, {**model.metadata["metadata"], "normal_source": "fitted", "settings": settings})
+    assert main(["predict", str(HELD_OUT), "--model", str(folder), "--out", str(tmp_path / "out"), "--quiet",
+                 "--threads", "1"]) == 0
+    photo, predicted, _, _ = capsys.readouterr().out.strip().split("\t")
+    assert predicted in CLASSES
+    for stage in ("geometry", "material", "normals"):
+        state = json.loads((tmp_path / "out" / "satin_red" / "fit" / stage / "state.json").read_text())
+        assert state["status"] == "fitted", state

@@ -1,0 +1,365 @@
+"""Write ``docs/results.md``: the measured figures of the workflow and the benchmarks, read from their output files.
+
+    .venv/bin/python workflow/benchmarks/results_doc.py [--results results] [--out docs/results.md]
+
+Every section names the file its figures come from and the date that file was
+written; where the file does not exist the section says ``not measured: run
+<command>`` instead. Nothing is measured here: figures are copied from the
+reports, and the only arithmetic is the median and maximum of Snakemake's
+per-job benchmark files. Relative paths are taken from the repository root.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import statistics
+from collections import defaultdict
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+from clothscope.atomic import write_text
+
+ROOT = Path(__file__).resolve().parents[2]
+THIS_COMMAND = ".venv/bin/python workflow/benchmarks/results_doc.py"
+
+
+@dataclass(frozen=True)
+class Run:
+    """One workflow run (a results folder) whose reports are compared with the others'."""
+
+    label: str
+    folder: Path
+    sheet: Path
+    command: str
+
+
+@dataclass(frozen=True)
+class BenchmarkReport:
+    """A Markdown report written by a benchmark script, looked for at ``candidates`` (first found wins)."""
+
+    title: str
+    candidates: tuple[str, ...]
+    command: str
+
+
+def shown(path: Path) -> str:
+    """``path`` relative to the repository root when it is inside it, for display."""
+    try:
+        return str(path.resolve().relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
+def written_on(path: Path) -> str:
+    """The UTC date ``path`` was last written, ``YYYY-MM-DD``."""
+    return datetime.fromtimestamp(path.stat().st_mtime, tz=timezone.utc).strftime("%Y-%m-%d")
+
+
+def source_note(paths: list[Path]) -> str:
+    """One line naming the files a section's figures come from, with their dates."""
+    return "Source: " + ", ".join(f"`{shown(p)}` ({written_on(p)})" for p in paths) + "."
+
+
+def not_measured(command: str) -> str:
+    """The line a section shows in place of figures whose file does not exist."""
+    return f"not measured: run `{command}`"
+
+
+def workflow_runs(results: Path) -> list[Run]:
+    """The design run, the held-out run and the colour-texture experiment, with the commands that make them."""
+    r = shown(results)
+    own_folder = "" if r == "results" else f" --config results={r}"
+    design = ".venv/bin/snakemake --cores 2" + own_folder
+    holdout = (f".venv/bin/snakemake --cores 2 holdout_set{own_folder} && .venv/bin/snakemake --cores 2 "
+               f"--config samples={r}/holdout/samples.tsv results={r}/holdout/run")
+    albedo = f".venv/bin/snakemake --cores 2 --config results={r}/exp_albedo fit='{{normals: {{albedo_weight: 0.05}}}}'"
+    default_sheet = ROOT / "config" / "samples.tsv"
+    return [
+        Run("design", results, default_sheet, design),
+        Run("held-out", results / "holdout" / "run", results / "holdout" / "samples.tsv", holdout),
+        Run("colour texture", results / "exp_albedo", default_sheet, albedo),
+    ]
+
+
+def read_csv_rows(path: Path, delimiter: str = ",") -> list[dict[str, str]]:
+    """Rows of a CSV or TSV file as dictionaries keyed by its header."""
+    with path.open(newline="", encoding="utf-8") as handle:
+        return list(csv.DictReader(handle, delimiter=delimiter))
+
+
+def markdown_tables(text: str) -> list[list[list[str]]]:
+    """Every pipe table in ``text``: a list of rows (header first, separator dropped), each a list of cells."""
+    tables: list[list[list[str]]] = []
+    current: list[list[str]] = []
+    for line in text.splitlines() + [""]:
+        if line.startswith("|"):
+            cells = [cell.strip() for cell in line.strip().strip("|").split("|")]
+            if not all(set(cell) <= set("-: ") for cell in cells):
+                current.append(cells)
+        elif current:
+            tables.append(current)
+            current = []
+    return tables
+
+
+def lines_starting(path: Path, prefix: str) -> list[str]:
+    """The lines of a text file that start with ``prefix``."""
+    return [line for line in path.read_text(encoding="utf-8").splitlines() if line.startswith(prefix)]
+
+
+def render_table(header: list[str], rows: list[list[str]]) -> str:
+    """A Markdown pipe table."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def embedded_markdown(path: Path) -> str:
+    """A report's Markdown without its title line, its headings moved two levels down to sit under this page's."""
+    lines = path.read_text(encoding="utf-8").strip().splitlines()
+    if lines and lines[0].startswith("# "):
+        lines = lines[1:]
+    return "\n".join("##" + line if line.startswith("#") else line for line in lines).strip()
+
+
+def percent(fraction: str | float) -> str:
+    """A fraction written as a percentage with one decimal."""
+    return f"{100 * float(fraction):.1f}%"
+
+
+def missing_runs(runs: list[Run], measured: list[Run]) -> list[str]:
+    """One block with a not-measured line per run that lacks a section's file (empty when none does)."""
+    lines = [f"- {run.label}: {not_measured(run.command)}" for run in runs if run not in measured]
+    return ["\n".join(lines)] if lines else []
+
+
+def runs_section(runs: list[Run]) -> str:
+    """Which runs the page compares: folder, sample sheet, number of images and the sheet's ``source`` values."""
+    rows = []
+    for run in runs:
+        if not (run.folder / "reports").is_dir() or not run.sheet.exists():
+            rows.append([run.label, f"`{shown(run.folder)}`", f"`{shown(run.sheet)}`", "-", not_measured(run.command)])
+            continue
+        sheet = read_csv_rows(run.sheet, "\t")
+        sources = sorted({row.get("source", "") for row in sheet} - {""})
+        rows.append([run.label, f"`{shown(run.folder)}`", f"`{shown(run.sheet)}`", str(len(sheet)),
+                     ", ".join(sources) or "-"])
+    text = ("The *design* set is the embedded one: the descriptor's defaults and the classifier's options were chosen "
+            "while looking at it, so its figures are optimistic. The *held-out* set was rendered from another seed "
+            "after those choices; its figures are the ones to quote. The *colour texture* run is the design set with "
+            "`fit.normals.albedo_weight: 0.05`.\n\n")
+    return "## Runs\n\n" + text + render_table(["run", "results folder", "sample sheet", "images", "source"], rows)
+
+
+def model_feature_set(record_path: Path) -> str:
+    """The feature set a saved model reads (``chosen_set`` in its ``model.json``), or ``-``."""
+    if not record_path.exists():
+        return "-"
+    record = json.loads(record_path.read_text(encoding="utf-8"))
+    return str(record.get("metadata", {}).get("chosen_set") or "-")
+
+
+def classifier_row(run: Run, accuracy_path: Path) -> list[str]:
+    """One table row from a run's ``reports/<source>/accuracy.json`` and the model beside it."""
+    source = accuracy_path.parent.name
+    result = json.loads(accuracy_path.read_text(encoding="utf-8"))
+    model_set = model_feature_set(run.folder / "models" / source / "model.json")
+    if result.get("status") == "not run":
+        return [run.label, source, "-", "not run: " + str(result.get("reason", "")), "-", "-", "-", model_set]
+    folds = sorted(result.get("selected_feature_sets", {}).items(), key=lambda item: -item[1])
+    return [run.label, source, f"{result['correct']}/{result['n']}", percent(result["accuracy"]),
+            f"{percent(result['wilson_low'])}-{percent(result['wilson_high'])}", percent(result["chance_uniform"]),
+            ", ".join(f"{name} {count}" for name, count in folds) or "-", model_set]
+
+
+def classifier_section(runs: list[Run]) -> str:
+    """The classifier of record's LOOCV accuracy per run and source (``reports/<source>/accuracy.json``)."""
+    found = {run: sorted((run.folder / "reports").glob("*/accuracy.json")) for run in runs}
+    measured = [run for run in runs if found[run]]
+    parts = ["## Classifier of record (LOOCV)"]
+    if measured:
+        paths = [path for run in measured for path in found[run]]
+        rows = [classifier_row(run, path) for run in measured for path in found[run]]
+        parts += [source_note(paths), render_table(["run", "source", "correct", "accuracy", "95% Wilson", "chance",
+                                                    "sets the folds chose", "model for new photos uses"], rows),
+                  "The last column is read from `models/<source>/model.json` beside the reports; `-` where that "
+                  "run has no such record."]
+    parts += missing_runs(runs, measured)
+    return "\n\n".join(parts)
+
+
+def feature_sets_section(runs: list[Run]) -> str:
+    """Every feature set's LOOCV accuracy, one column per run (``reports/feature_sets.csv``)."""
+    measured = [run for run in runs if (run.folder / "reports" / "feature_sets.csv").exists()]
+    parts = ["## Feature sets side by side"]
+    if measured:
+        paths = [run.folder / "reports" / "feature_sets.csv" for run in measured]
+        tables = {run.label: {row["feature_set"]: row for row in read_csv_rows(path)} for run, path in zip(measured, paths)}
+        names: dict[str, str] = {}
+        for table in tables.values():
+            for name, row in table.items():
+                names.setdefault(name, row["description"])
+        rows = []
+        for name, description in names.items():
+            cells = []
+            for run in measured:
+                row = tables[run.label].get(name)
+                ok = row is not None and row["status"] == "ok"
+                cells.append(f"{percent(row['accuracy'])} ({row['correct']}/{row['n']})" if ok else "-")
+            rows.append([f"`{name}`", description, *cells])
+        headlines = [f"- {run.label}: {line}" for run in measured
+                     for line in lines_starting(run.folder / "reports" / "feature_sets.md", "Inverse rendering")]
+        parts += [source_note(paths), "What the inverse rendering bought over the photo alone:\n\n" + "\n".join(headlines),
+                  render_table(["feature set", "what", *(run.label for run in measured)], rows)]
+    parts += missing_runs(runs, measured)
+    return "\n\n".join(parts)
+
+
+def fit_accuracy_section(runs: list[Run]) -> str:
+    """The inverse renderer's errors against the ground truth, one column per run, then the design run per class."""
+    measured = [run for run in runs if (run.folder / "reports" / "fit_accuracy.md").exists()]
+    parts = ["## Inverse renderer against the ground truth"]
+    if measured:
+        paths = [run.folder / "reports" / "fit_accuracy.md" for run in measured]
+        summaries = [markdown_tables(path.read_text(encoding="utf-8"))[0] for path in paths]
+        keys: list[tuple[str, str, str]] = []
+        values: dict[tuple[str, str], dict[str, str]] = defaultdict(dict)
+        for run, table in zip(measured, summaries):
+            for metric, statistic, value, target, *_ in table[1:]:
+                if (metric, statistic) not in values:
+                    keys.append((metric, statistic, target))
+                values[(metric, statistic)][run.label] = value
+        rows = [[metric, statistic, target, *(values[(metric, statistic)].get(run.label, "-") for run in measured)]
+                for metric, statistic, target in keys]
+        counts = [f"- {run.label}: {line}" for run, path in zip(measured, paths) for line in lines_starting(path, "")
+                  if line.endswith("images fitted.")]
+        parts += [source_note(paths), "\n".join(counts),
+                  render_table(["metric", "statistic", "target", *(run.label for run in measured)], rows),
+                  "`total_s` is the sum of the three fit stages' wall-clock seconds per image, with two images "
+                  "fitting side by side on the machine that ran them (see the rule times below)."]
+        per_class = markdown_tables(paths[0].read_text(encoding="utf-8"))
+        if len(per_class) > 1:
+            parts += [f"Medians per class, {measured[0].label} run:", render_table(per_class[1][0], per_class[1][1:])]
+    parts += missing_runs(runs, measured)
+    return "\n\n".join(parts)
+
+
+def rule_of(tsv: Path, benchmarks: Path) -> str:
+    """The rule a benchmark file belongs to: its folder under ``benchmarks/``, at most two levels (``features/fitted``)."""
+    return "/".join(tsv.parent.relative_to(benchmarks).parts[:2])
+
+
+def rule_times_table(benchmarks: Path) -> str:
+    """Median and maximum seconds and peak memory per rule over Snakemake's benchmark files in ``benchmarks``."""
+    seconds: dict[str, list[float]] = defaultdict(list)
+    memory: dict[str, list[float]] = defaultdict(list)
+    for tsv in sorted(benchmarks.rglob("*.tsv")):
+        for row in read_csv_rows(tsv, "\t"):
+            seconds[rule_of(tsv, benchmarks)].append(float(row["s"]))
+            if row.get("max_rss", "NA") not in ("NA", "-", ""):
+                memory[rule_of(tsv, benchmarks)].append(float(row["max_rss"]))
+    rows = []
+    for rule, values in sorted(seconds.items()):
+        rss = memory.get(rule, [])
+        rows.append([f"`{rule}`", str(len(values)), f"{statistics.median(values):.1f}", f"{max(values):.1f}",
+                     f"{statistics.median(rss):.0f}" if rss else "-", f"{max(rss):.0f}" if rss else "-"])
+    return render_table(["rule", "jobs", "median s", "max s", "median max RSS MB", "max RSS MB"], rows)
+
+
+def rule_times_section(runs: list[Run]) -> str:
+    """Per-rule time and memory of each run, from ``<run>/benchmarks/**/*.tsv``."""
+    parts = ["## Time and memory per rule",
+             "Wall-clock seconds and peak resident memory of each job, from Snakemake's `benchmark:` files, as "
+             "measured on the machine and under the load of the run that wrote them (two jobs side by side on 2 "
+             "cores by default). A rule missing from a run's table did not run in that folder."]
+    for run in runs:
+        benchmarks = run.folder / "benchmarks"
+        files = sorted(benchmarks.rglob("*.tsv")) if benchmarks.is_dir() else []
+        parts.append(f"### {run.label}")
+        if not files:
+            parts.append(not_measured(run.command))
+            continue
+        dates = sorted({written_on(path) for path in files})
+        span = dates[0] if len(dates) == 1 else f"{dates[0]} to {dates[-1]}"
+        parts += [f"Source: `{shown(benchmarks)}/**/*.tsv` ({len(files)} files, written {span}).",
+                  rule_times_table(benchmarks)]
+    return "\n\n".join(parts)
+
+
+def embedded_section(title: str, candidates: list[Path], command: str) -> str:
+    """A report embedded as it is, from the first of ``candidates`` that exists, or the not-measured line."""
+    found = [path for path in candidates if path.exists()]
+    if not found:
+        return f"## {title}\n\n{not_measured(command)}"
+    return f"## {title}\n\n{source_note(found[:1])} Made by `{command}`.\n\n{embedded_markdown(found[0])}"
+
+
+def benchmark_reports(results: Path) -> list[BenchmarkReport]:
+    """The benchmark scripts' reports, with the command that writes each (see ``workflow/benchmarks/``)."""
+    py = ".venv/bin/python workflow/benchmarks"
+    return [
+        BenchmarkReport("Structure descriptor settings, design and held-out", ("reports/structure_sweep.md",),
+                        f"{py}/structure_sweep.py"),
+        BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
+                        f"{py}/class_subsets.py"),
+        BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
+                        f"{py}/invariance_fitted.py"),
+        BenchmarkReport("What accuracy costs: presets and knobs", ("reports/cost_accuracy.md",), f"{py}/cost_accuracy.py"),
+        BenchmarkReport("Normal-map stage knobs", ("reports/normals_sweep.md",), f"{py}/normals_sweep.py"),
+        BenchmarkReport("Planned effects against the full-effects baseline",
+                        ("bench/effects_all/effects_ablation.md", "bench/effects/effects_ablation.md"),
+                        f"{py}/effects_ablation.py --images all --out results/bench/effects_all"),
+        BenchmarkReport("Fit time per image, kernel cache cold and warm", ("bench/fit_timing/fit_timing.md",),
+                        f"{py}/fit_timing.py"),
+        BenchmarkReport("Scaling with cores and resolution", ("bench/scaling/scaling.md",), f"{py}/scaling.py"),
+        BenchmarkReport("The `paper` preset's projected time", ("reports/paper_projection.md",), f"{py}/paper_projection.py"),
+        BenchmarkReport("Lower bounds on the fold normal error", ("reports/fold_bounds.md",), f"{py}/fold_bounds.py"),
+    ]
+
+
+def workflow_reports(results: Path) -> list[tuple[str, list[Path], str]]:
+    """Reports of the design run embedded as they are: title, where to look, the command that makes them."""
+    reports = results / "reports"
+    return [
+        ("The paper's experiments, fitted normal maps", [reports / "fitted" / "paper_tables.md"],
+         ".venv/bin/snakemake --cores 2 paper_reports"),
+        ("The paper's experiments, ground-truth normal maps", [reports / "truth" / "paper_tables.md"],
+         ".venv/bin/snakemake --cores 2 paper_reports --config features='{normal_source: truth}'"),
+        ("Fitted against true relief", [reports / "diagnosis" / "spectra.md"],
+         ".venv/bin/snakemake --cores 2 spectra_diagnosis"),
+    ]
+
+
+def results_page(results: Path) -> str:
+    """The whole of ``docs/results.md``."""
+    runs = workflow_runs(results)
+    header = ("# Measured results\n\n"
+              f"Written by `{THIS_COMMAND}` from the files under `{shown(results)}/`; do not edit by hand. Each section "
+              "names its files and the date they were written: figures from different dates may come from different "
+              "versions of the code. A section whose file is missing says how to make it. The images are synthetic "
+              "(`data/synthetic/`, README \"The embedded synthetic dataset\"), far easier than real photos: the "
+              "figures check the pipeline, not the method.")
+    sections = [header, runs_section(runs), classifier_section(runs), feature_sets_section(runs),
+                fit_accuracy_section(runs), rule_times_section(runs)]
+    sections += [embedded_section(title, paths, command) for title, paths, command in workflow_reports(results)]
+    sections += [embedded_section(report.title, [results / path for path in report.candidates], report.command)
+                 for report in benchmark_reports(results)]
+    contents = "\n".join(f"- {section.splitlines()[0][3:]}" for section in sections[1:])
+    return "\n\n".join([header, "Contents:\n\n" + contents, *sections[1:]]) + "\n"
+
+
+def main() -> None:
+    """Parse the options, build the page and write it atomically."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--results", default="results", help="results folder of the design run (default: results)")
+    parser.add_argument("--out", default="docs/results.md", help="page to write (default: docs/results.md)")
+    args = parser.parse_args()
+    results, out = ROOT / args.results, ROOT / args.out
+    write_text(out, results_page(results))
+    print(f"wrote {shown(out)}")
+
+
+if __name__ == "__main__":
+    main()
