@@ -33,7 +33,7 @@ rule all:
         classify_outputs(config["features"]["normal_source"]),
         feature_set_outputs(),
         physics_outputs(config["features"]["normal_source"]),
-        paper_table_outputs(config["features"]["normal_source"]),
+        paper_tables_in_all(config["features"]["normal_source"]),
         fit_accuracy_report() if config["features"]["normal_source"] == "fitted" else [],
         diagnosis_outputs(),
     default_target: True

@@ -75,4 +75,14 @@ def broken_and_valid_files(folder: Path) -> dict[str, tuple[Path, bool]]:
     add("text.png", False).write_text("this is not an image\n")
     Image.new("RGB", (1, 1), (10, 20, 30)).save(add("tiny.png", False))
     Image.new("1", (12000, 9000)).save(add("huge.png", False))
+    add("directory.png", False).mkdir()
+    loop = add("loop.png", False)
+    loop.symlink_to(loop)
+    add("dangling.png", False).symlink_to(folder / "gone.png")
+    add("missing.png", False)
     return files
+
+
+#: what the rejection of each file-level problem of :func:`broken_and_valid_files` says
+FILE_PROBLEMS = {"directory": "is a directory", "loop": "symlink loop", "dangling": "broken symlink", "missing": "does not exist",
+                 "empty": "empty (0 bytes)"}

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import broken_and_valid_files, gradient_rgb
+from conftest import FILE_PROBLEMS, broken_and_valid_files, gradient_rgb
 from PIL import Image
 
 from clothscope.atomic import atomic_dir, write_json
@@ -118,6 +118,8 @@ def test_every_broken_file_is_rejected_with_one_line(tmp_path):
         assert message.startswith(str(path)) and "\n" not in message, message
         if stem == "huge":
             assert "12000x9000" in message and "max_megapixels" in message
+        if stem in FILE_PROBLEMS:
+            assert FILE_PROBLEMS[stem] in message, message
 
 
 def test_prepare_image_accepts_and_rejects(tmp_path):

@@ -60,7 +60,6 @@ def test_default_sheet_loads_with_every_file(tmp_path):
     "body, fragment",
     [
         ("image_id\tpath\na\t{img}\na\t{img}\n", "duplicate image_id"),
-        ("image_id\tpath\na\tmissing.png\n", "does not exist"),
         ("image_id\tpath\tcolour\na\t{img}\tred\n", "unknown column"),
         ("image_id\tpath\nbad id\t{img}\n", "does not match"),
         ("image_id\tpath\tfabric_class\na\t{img}\tCanvas!\n", "fabric_class"),

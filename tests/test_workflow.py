@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pandas as pd
 import pytest
-from conftest import broken_and_valid_files, job_counts, run_snakemake
+from conftest import FILE_PROBLEMS, broken_and_valid_files, job_counts, run_snakemake
 
 
 def test_dry_run_plans_one_job_per_image_per_stage(fresh_clone):
@@ -40,10 +40,22 @@ def test_lint_is_clean(fresh_clone):
 
 def test_bad_sample_sheet_stops_before_any_job_with_one_line(fresh_clone, tmp_path):
     sheet = tmp_path / "s.tsv"
-    sheet.write_text("image_id\tpath\na\tnowhere.png\n")
+    sheet.write_text("image_id\tpath\na\tx.png\na\ty.png\n")
     result = run_snakemake(fresh_clone, "-n", "--cores", "1", "--config", f"samples={sheet}")
     assert result.returncode != 0
-    assert f"clothscope: error: {sheet} line 2: image 'a': file nowhere.png does not exist" in result.stderr
+    assert f"clothscope: error: {sheet}: duplicate image_id(s): a" in result.stderr
+
+
+def test_unreadable_files_are_planned_as_rejections_not_errors(fresh_clone, tmp_path):
+    """A row naming a directory, a symlink loop or a missing file plans its prepare job (which rejects it), like any other."""
+    files = broken_and_valid_files(tmp_path / "photos")
+    sheet = tmp_path / "samples.tsv"
+    sheet.write_text("image_id\tpath\tfabric_class\n" + "".join(f"{stem}\t{path}\twool\n" for stem, (path, _) in files.items()))
+    result = run_snakemake(fresh_clone, "-n", "--cores", "1", "--config", f"samples={sheet}", f"results={tmp_path / 'results'}")
+    assert result.returncode == 0, result.stderr[-2000:]
+    counts = job_counts(result.stdout)
+    assert counts["prepare"] == len(files)
+    assert "paper_tables" not in counts, "the paper tables are for sheets with the paper's classes"
 
 
 @pytest.mark.slow
@@ -59,6 +71,7 @@ def test_broken_files_are_reported_and_valid_ones_proceed(fresh_clone, tmp_path)
     assert set(rejected["image_id"]) == bad
     for _, row in rejected.iterrows():
         assert row["path"] in row["reason"] and "\n" not in row["reason"]
+        assert FILE_PROBLEMS.get(row["image_id"], "") in row["reason"], row["reason"]
     for stem, (_, valid) in files.items():
         if valid:
             assert (results / "prepared" / stem / "image.exr").is_file(), stem

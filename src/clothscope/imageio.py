@@ -7,7 +7,9 @@ as :class:`ImageRejected`, whose message is one line naming the file.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import stat
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -204,6 +206,27 @@ def read_exr(path: str | os.PathLike[str]) -> np.ndarray:
     return data[..., None] if data.ndim == 2 else data
 
 
+def file_problem(path: str | os.PathLike[str]) -> str | None:
+    """Why ``path`` cannot be read as an image file (missing, a directory, a broken or looping symlink,
+    unreadable, empty), or None when it is a readable regular file."""
+    path = Path(path)
+    try:
+        info = path.stat()
+    except OSError as err:
+        if path.is_symlink():
+            return "symlink loop" if err.errno == errno.ELOOP else f"broken symlink (its target {os.readlink(path)} does not exist)"
+        return "file does not exist" if err.errno == errno.ENOENT else f"cannot be read ({err.strerror})"
+    if stat.S_ISDIR(info.st_mode):
+        return "is a directory, not an image file"
+    if not stat.S_ISREG(info.st_mode):
+        return "is not a regular file"
+    if not os.access(path, os.R_OK):
+        return "cannot be read (permission denied)"
+    if info.st_size == 0:
+        return "file is empty (0 bytes)"
+    return None
+
+
 def decode_image(
     path: str | os.PathLike[str], min_px: int = 64, max_megapixels: float = 100.0, clip_threshold: float = 0.98
 ) -> DecodedImage:
@@ -216,10 +239,9 @@ def decode_image(
         unreadable, too small or too large.
     """
     path = Path(path)
-    if not path.is_file():
-        raise _reject(path, "file does not exist")
-    if path.stat().st_size == 0:
-        raise _reject(path, "file is empty (0 bytes)")
+    problem = file_problem(path)
+    if problem:
+        raise _reject(path, problem)
     if path.suffix.lower() in EXR_SUFFIXES:
         return decode_exr(path, min_px, max_megapixels)
     return decode_raster(path, min_px, max_megapixels, clip_threshold)

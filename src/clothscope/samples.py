@@ -38,7 +38,7 @@ def _read_table(path: Path) -> pd.DataFrame:
     return table
 
 
-def load_sample_sheet(path: str | os.PathLike[str], schema_path: str | os.PathLike[str], check_files: bool = True) -> pd.DataFrame:
+def load_sample_sheet(path: str | os.PathLike[str], schema_path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a sample sheet.
 
     Parameters
@@ -47,8 +47,6 @@ def load_sample_sheet(path: str | os.PathLike[str], schema_path: str | os.PathLi
         The TSV file.
     schema_path
         ``workflow/schemas/samples.schema.yaml``: column types and defaults.
-    check_files
-        Also require every ``path`` to be an existing file.
 
     Returns
     -------
@@ -76,10 +74,6 @@ def load_sample_sheet(path: str | os.PathLike[str], schema_path: str | os.PathLi
     duplicated = duplicate_ids(sheet)
     if duplicated:
         raise InputError(f"{path}: duplicate image_id(s): {', '.join(duplicated)}")
-    if check_files:
-        for line, (image_id, image_path) in enumerate(zip(sheet["image_id"], sheet["path"]), start=2):
-            if not Path(image_path).is_file():
-                raise InputError(f"{path} line {line}: image {image_id!r}: file {image_path} does not exist")
     return sheet.set_index("image_id", drop=False)
 
 

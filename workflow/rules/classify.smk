@@ -13,7 +13,7 @@ rule classify:
         comparison=feature_set_comparison,
         photo=lambda wildcards: [] if wildcards.source == "photo" else feature_table("photo"),
     output:
-        reports=[reports_path("{source}", name) for name in CLASSIFY_REPORTS],
+        reports=[classify_report(name) for name in CLASSIFY_REPORTS],
         model_arrays=os.path.join(RESULTS, "models", "{source}", "model.npz"),
         model_record=os.path.join(RESULTS, "models", "{source}", "model.json"),
         physics=[os.path.join(RESULTS, "physics", "{source}", f"{image}.json") for image in IMAGE_IDS],

@@ -2,6 +2,7 @@
 import os
 import sys
 
+from clothscope.imageio import file_problem
 from clothscope.samples import load_sample_sheet
 from clothscope.schema import InputError, apply_preset, load_schema, validate
 from clothscope.synth.fabrics import FABRICS
@@ -36,7 +37,13 @@ wildcard_constraints:
 
 
 def image_path(wildcards):
-    """Input photo of one sample-sheet row."""
+    """Input photo of one sample-sheet row; none when it is not a readable file (prepare then rejects the image, saying why)."""
+    path = SAMPLES.loc[wildcards.image, "path"]
+    return [] if file_problem(path) else path
+
+
+def sheet_path(wildcards):
+    """The path a sample-sheet row names, readable or not."""
     return SAMPLES.loc[wildcards.image, "path"]
 
 
@@ -60,6 +67,7 @@ def synthetic_outputs(kind, dataset="synthetic"):
 from pathlib import Path
 
 from clothscope.features import NORMAL_SOURCES, row_settings
+from clothscope.tables import PAPER_EXPERIMENTS
 from clothscope.synth.generate import truth_paths
 
 
@@ -123,6 +131,17 @@ def reports_path(source, name):
 
 CLASSIFY_REPORTS = ("accuracy.json", "confusion.csv", "confusion.png", "per_class.csv", "predictions.csv", "images.tsv",
                     "summary.md")
+#: ... and those shown in the Snakemake report (`snakemake --report report.html`)
+CLASSIFY_IN_REPORT = ("summary.md", "confusion.png", "per_class.csv")
+
+
+def classify_report(name):
+    """One output of the classify rule, marked for the Snakemake report when it is one of CLASSIFY_IN_REPORT."""
+    path = reports_path("{source}", name)
+    if name not in CLASSIFY_IN_REPORT:
+        return path
+    return report(path, caption="../report/classify.rst", category="Classifier", subcategory="{source} maps",
+                  labels={"source": "{source}", "file": name})
 
 
 def classify_outputs(source):
@@ -153,6 +172,12 @@ def physics_outputs(source):
 
 def paper_table_outputs(source):
     return [reports_path(source, "paper_tables.md"), reports_path(source, "paper_tables.csv")]
+
+
+def paper_tables_in_all(source):
+    """The paper tables, for `all` only when the sheet labels every class of the paper's first experiment."""
+    labelled = set(SAMPLES["fabric_class"].fillna("").astype(str))
+    return paper_table_outputs(source) if set(PAPER_EXPERIMENTS[0].classes) <= labelled else []
 
 
 def sweep_outputs(source):

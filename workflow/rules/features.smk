@@ -9,11 +9,17 @@ rule features:
         unpack(feature_inputs),
     output:
         row=features_path("{source}", "{image}.parquet"),
-        plot=features_path("{source}", "{image}.png"),
+        plot=report(
+            features_path("{source}", "{image}.png"),
+            caption="../report/spectrum.rst",
+            category="Spectra",
+            subcategory="{source}",
+            labels={"image": "{image}", "source": "{source}"},
+        ),
     params:
         settings=FEATURE_SETTINGS,
         fabric_class=lambda wildcards: SAMPLES.loc[wildcards.image, "fabric_class"],
-        path=image_path,
+        path=sheet_path,
     wildcard_constraints:
         image=r"(?!table$)[A-Za-z0-9][A-Za-z0-9_.-]*",
     log:

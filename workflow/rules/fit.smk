@@ -56,7 +56,13 @@ rule fit_normals:
         prepared=os.path.join(RESULTS, "prepared", "{image}"),
         previous=fit_dir("material"),
     output:
-        directory(fit_dir("normals")),
+        report(
+            directory(fit_dir("normals")),
+            patterns=["{name}.png"],
+            caption="../report/fit_normals.rst",
+            category="Inverse rendering",
+            subcategory="{image}",
+        ),
     params:
         settings=config["fit"]["normals"],
         variant=config["variant"],

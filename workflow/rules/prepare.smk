@@ -8,6 +8,7 @@ rule prepare:
     output:
         directory(os.path.join(RESULTS, "prepared", "{image}")),
     params:
+        path=sheet_path,
         settings=config["prepare"],
         lattice=config["features"]["structure"],
     log:

@@ -6,7 +6,7 @@ from clothscope.structure import StructureSettings
 with job_log(snakemake.log[0], "prepare") as log:
     record = prepare_image(
         snakemake.wildcards.image,
-        snakemake.input[0],
+        snakemake.params.path,
         snakemake.output[0],
         PrepareSettings(**snakemake.params.settings),
         StructureSettings(**snakemake.params.lattice),
