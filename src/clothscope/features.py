@@ -79,7 +79,7 @@ STATUS_OK = "ok"
 #: Keys of the ``features:`` config section that are SpectrumSettings fields.
 SPECTRUM_KEYS = (
     "n_peaks", "alpha", "dc_radius", "peak_size", "window", "reference_resolution",
-    "radius_normalisation", "peak_count", "strong_fraction",
+    "radius_normalisation", "peak_count", "strong_fraction", "significance",
 )
 #: Extra feature columns (spectrum.extra_features and surface_features), present only with ``extras: true``.
 EXTRA_COLUMNS = ("x_angle_deg", "x_low_radius_ratio", "x_strong_to_low_radius", "x_flatness", "x_peak_fraction",
