@@ -75,6 +75,9 @@ def broken_and_valid_files(folder: Path) -> dict[str, tuple[Path, bool]]:
     add("text.png", False).write_text("this is not an image\n")
     Image.new("RGB", (1, 1), (10, 20, 30)).save(add("tiny.png", False))
     Image.new("1", (12000, 9000)).save(add("huge.png", False))
+    nan = np.linspace(0, 1, 96 * 128, dtype=np.float32).reshape(96, 128)
+    nan[5, 5] = np.nan
+    Image.fromarray(nan, mode="F").save(add("nan.tif", False))
     add("directory.png", False).mkdir()
     loop = add("loop.png", False)
     loop.symlink_to(loop)
@@ -84,5 +87,40 @@ def broken_and_valid_files(folder: Path) -> dict[str, tuple[Path, bool]]:
 
 
 #: what the rejection of each file-level problem of :func:`broken_and_valid_files` says
-FILE_PROBLEMS = {"directory": "is a directory", "loop": "symlink loop", "dangling": "broken symlink", "missing": "does not exist",
+FILE_PROBLEMS = {"nan": "1 pixel(s) hold NaN or infinite values", "directory": "is a directory", "loop": "symlink loop", "dangling": "broken symlink", "missing": "does not exist",
                  "empty": "empty (0 bytes)"}
+
+
+NON_FINITE_TOKENS = {"nan", "inf", "-inf", "+inf", "infinity", "-infinity"}
+
+
+def non_finite_outputs(folder: Path) -> list[str]:
+    """Every JSON, CSV/TSV and Parquet file under ``folder`` that holds a NaN or infinite number, with where."""
+    import json
+
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    import pyarrow.parquet as pq
+
+    found = []
+
+    def refuse(token: str) -> None:
+        raise ValueError(token)
+
+    for path in sorted(folder.rglob("*")):
+        if path.suffix == ".json":
+            try:
+                json.loads(path.read_text(), parse_constant=refuse)
+            except ValueError as err:
+                found.append(f"{path}: {err}")
+        elif path.suffix in (".csv", ".tsv"):
+            separator = "\t" if path.suffix == ".tsv" else ","
+            for number, line in enumerate(path.read_text().splitlines(), start=1):
+                if any(cell.strip().lower() in NON_FINITE_TOKENS for cell in line.split(separator)):
+                    found.append(f"{path} line {number}")
+        elif path.suffix == ".parquet":
+            table = pq.read_table(path)
+            for name, column in zip(table.column_names, table.columns):
+                if pa.types.is_floating(column.type) and pc.all(pc.is_finite(column), skip_nulls=True).as_py() is False:
+                    found.append(f"{path}: column {name}")
+    return found

@@ -5,13 +5,14 @@ import json
 import math
 import re
 import shutil
+import zipfile
 
 import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from conftest import ROOT, SCHEMAS, SYNTHETIC, job_counts, run_snakemake
+from conftest import ROOT, SCHEMAS, SYNTHETIC, job_counts, non_finite_outputs, run_snakemake
 
 from clothscope.features import (EXTRA_COLUMNS, concat_rows, config_hash, feature_row, feature_schema, features_job,
                                  load_fitted, load_truth, paper_feature_columns, unusable_row, write_rows)
@@ -206,6 +207,12 @@ def test_truth_mode_end_to_end_and_incremental(fresh_clone, tmp_path):
     paper = pd.read_csv(results / "reports" / "truth" / "paper_tables.csv")
     assert len(paper) == 6 and set(paper["status"]) == {"ok"} and list(paper["n"]) == [30, 30, 42, 42, 36, 36]
     assert "| 60% |" in (results / "reports" / "truth" / "paper_tables.md").read_text()
+    assert non_finite_outputs(results) == [], "every number the pipeline writes is finite"
+    report = run_snakemake(fresh_clone, "--report", str(tmp_path / "report.zip"), "classify_reports", "paper_reports", *config)
+    assert report.returncode == 0, report.stderr[-3000:]
+    with zipfile.ZipFile(tmp_path / "report.zip") as archive:
+        names = archive.namelist()
+    assert any(n.endswith("confusion.png") for n in names) and any(n.endswith("query_canvas.png") for n in names)
 
     # a new image (with no ground truth: marked missing, not a crash) plans only its own features job
     extra = tmp_path / "new_photo.png"

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from . import __version__
 from .atomic import write_text
 
 from .samples import COLUMNS, sheet_from_folder, sheet_to_tsv
@@ -88,11 +89,15 @@ def cmd_predict(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="clothscope", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"clothscope {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
     pred = commands.add_parser("predict", help="fabric class and physics of photos, with a model the workflow trained",
-                               description="Prints one line per photo: photo, class, posterior, physics JSON "
-                                           "(or 'not classified' and the reason).")
-    pred.add_argument("photos", nargs="+", metavar="PHOTO")
+                               description="Prepares each photo, fits it (only when the model reads fitted-map "
+                                           "features), computes its features with the settings the model was trained "
+                                           "with, and prints one tab-separated line per photo: photo, class, posterior, "
+                                           "physics JSON (or 'not classified' and the reason). Exit code 0 when any "
+                                           "photo was classified, 1 when none was, 2 when the model is missing or bad.")
+    pred.add_argument("photos", nargs="+", metavar="PHOTO", help="PNG, JPEG, TIFF or OpenEXR files")
     pred.add_argument("--model", default="results/models/fitted",
                       help="folder with model.json and model.npz, written by the workflow's classify rule "
                            "(default: results/models/fitted; make it with: snakemake --cores 2)")

@@ -153,6 +153,9 @@ def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold
     except ImageRejected:
         raise
     except Image.UnidentifiedImageError:
+        if path.suffix.lower() in (".tif", ".tiff"):
+            raise _reject(path, "a TIFF layout this reader cannot decode (e.g. 32-bit float colour) or a corrupt TIFF; "
+                                "save it as 16-bit PNG or OpenEXR") from None
         raise _reject(path, "not a readable image (unknown or corrupt format)") from None
     except (OSError, SyntaxError, ValueError) as err:
         raise _reject(path, f"cannot decode {path.suffix or 'file'}: {err}") from None
@@ -169,6 +172,9 @@ def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold
         if orientation not in (1, None):
             notes.append(f"EXIF orientation {orientation} applied")
     encoded = _to_rgb(encoded)
+    bad = int(np.count_nonzero(~np.isfinite(encoded).all(axis=2)))
+    if bad:
+        raise _reject(path, f"{bad} pixel(s) hold NaN or infinite values")
     if fmt == "TIFF" and depth == 8 and ";16" in rawmode:
         notes.append("16-bit colour TIFF decoded at 8-bit precision")
     clipped = np.any(encoded >= clip_threshold, axis=2)

@@ -156,7 +156,7 @@ MIN_SIZE = 16
 #: Peak-to-peak variation of the z map below which the map counts as flat.
 FLAT_TOLERANCE = 1e-9
 #: Fewest spectrum bins a ring of the noise-calibrated peak test holds (:func:`ring_noise_threshold`).
-MIN_RING_BINS = 256
+MIN_RING_BINS = 64
 
 
 @dataclass(frozen=True)
