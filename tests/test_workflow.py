@@ -1,8 +1,16 @@
 """The Snakemake workflow as a new user meets it: dry run and lint on a fresh clone, and a run on broken files."""
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
 import pandas as pd
 import pytest
+import yaml
 from conftest import FILE_PROBLEMS, broken_and_valid_files, job_counts, run_snakemake
 
 
@@ -75,3 +83,46 @@ def test_broken_files_are_reported_and_valid_ones_proceed(fresh_clone, tmp_path)
     for stem, (_, valid) in files.items():
         if valid:
             assert (results / "prepared" / stem / "image.exr").is_file(), stem
+
+
+#: fit settings small enough for a whole fit in seconds (the kill test only needs the stages to run)
+TINY_FIT = {"geometry": {"resolution": 32, "spp": 2, "iterations": 6}, "material": {"resolution": 32, "spp": 1, "iterations": 4},
+            "normals": {"resolution": 64, "texture": 64, "spp": 2, "spp_grad": 1, "iterations": 4, "joint_iterations": 6}}
+
+
+def fitted_outputs(results: Path) -> dict[str, bytes]:
+    """The bytes of the fitted maps and the feature values of a one-image run (not its timings)."""
+    normals = results / "fit" / "canvas_red" / "normals"
+    table = pd.read_parquet(results / "features" / "fitted" / "table.parquet")
+    features = table.select_dtypes("number").to_numpy(dtype=float).tobytes()
+    return {"normal.exr": (normals / "normal.exr").read_bytes(), "height.exr": (normals / "height.exr").read_bytes(),
+            "features": features}
+
+
+@pytest.mark.slow
+def test_killed_run_reruns_to_the_same_outputs(fresh_clone, tmp_path):
+    """SIGKILL the workflow mid-fit, unlock, rerun: the outputs equal an uninterrupted run's, bit for bit, no temporaries left."""
+    sheet = tmp_path / "samples.tsv"
+    sheet.write_text(f"image_id\tpath\tfabric_class\ncanvas_red\t{fresh_clone / 'data/synthetic/canvas/canvas_red.png'}\tcanvas\n")
+
+    def args(results: Path) -> list[str]:
+        config = tmp_path / f"{results.name}.yaml"
+        config.write_text(yaml.safe_dump({"samples": str(sheet), "results": str(results), "fit": TINY_FIT}))
+        return ["--cores", "1", str(results / "features" / "fitted" / "table.parquet"), "--configfile", str(config)]
+
+    clean, killed = tmp_path / "clean", tmp_path / "killed"
+    assert run_snakemake(fresh_clone, *args(clean)).returncode == 0
+    process = subprocess.Popen([sys.executable, "-m", "snakemake", *args(killed)], cwd=fresh_clone, start_new_session=True,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    started = time.monotonic()
+    while not (killed / "logs" / "fit_normals" / "canvas_red.log").exists() and time.monotonic() - started < 300:
+        time.sleep(0.2)
+    time.sleep(1.0)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    assert not (killed / "features" / "fitted" / "table.parquet").exists(), "the kill came too late to test anything"
+    assert run_snakemake(fresh_clone, "--unlock", *args(killed)[2:]).returncode == 0
+    rerun = run_snakemake(fresh_clone, *args(killed))
+    assert rerun.returncode == 0, rerun.stderr[-3000:]
+    assert fitted_outputs(killed) == fitted_outputs(clean)
+    assert not [p for p in killed.rglob("*") if ".tmp" in p.name], "stale temporaries"
