@@ -2,15 +2,18 @@
 from __future__ import annotations
 
 import json
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from conftest import FILE_PROBLEMS, broken_and_valid_files, gradient_rgb
 from PIL import Image
 
 from clothscope.atomic import atomic_dir, write_json
-from clothscope.imageio import ImageRejected, decode_image, linear_to_srgb, srgb_to_linear
+from clothscope.imageio import ImageRejected, decode_image, linear_to_srgb, srgb_to_linear, write_exr
 from clothscope.prepare import PrepareSettings, prepare_image, to_working_resolution
 from clothscope.structure import StructureSettings
 
@@ -230,3 +233,62 @@ def test_thread_scale_needs_the_peak_test_and_a_valid_band(tmp_path):
         PrepareSettings(period_band=(16.0, 8.0))
     with pytest.raises(ValueError, match="scale"):
         PrepareSettings(scale="zoom")
+
+
+@pytest.fixture(scope="module")
+def valid_files(tmp_path_factory) -> dict[str, bytes]:
+    """The bytes of a small valid PNG, JPEG, TIFF and OpenEXR."""
+    folder = tmp_path_factory.mktemp("valid")
+    rgb = gradient_rgb(48, 64)
+    Image.fromarray(rgb).save(folder / "v.png")
+    Image.fromarray(rgb).save(folder / "v.jpg", quality=90)
+    Image.fromarray(rgb).save(folder / "v.tif")
+    write_exr(folder / "v.exr", rgb.astype(np.float32) / 255)
+    return {suffix: (folder / f"v.{suffix}").read_bytes() for suffix in ("png", "jpg", "tif", "exr")}
+
+
+MUTATIONS = st.one_of(
+    st.tuples(st.just("truncate"), st.floats(0.0, 1.0, exclude_max=True)),
+    st.tuples(st.just("flip"), st.lists(st.tuples(st.floats(0.0, 1.0, exclude_max=True), st.integers(0, 7)), min_size=1, max_size=20)),
+    st.tuples(st.just("splice"), st.floats(0.0, 1.0, exclude_max=True), st.binary(min_size=1, max_size=64)),
+)
+
+
+def mutated(data: bytes, mutation: tuple) -> bytes:
+    """``data`` truncated, with bits flipped, or with random bytes written over part of it."""
+    kind, *args = mutation
+    if kind == "truncate":
+        return data[: int(args[0] * len(data))]
+    out = bytearray(data)
+    if kind == "flip":
+        for where, bit in args[0]:
+            out[int(where * len(out))] ^= 1 << bit
+    else:
+        start = int(args[0] * len(out))
+        out[start:start + len(args[1])] = args[1]
+    return bytes(out)
+
+
+@settings(max_examples=120, deadline=10_000, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.sampled_from(["png", "jpg", "tif", "exr"]), MUTATIONS)
+def test_fuzzed_files_decode_or_are_rejected_with_one_line(valid_files, tmp_path, suffix, mutation):
+    """Truncated, bit-flipped or overwritten PNG, JPEG, TIFF and EXR files: finite pixels or one line, never another error."""
+    path = tmp_path / f"fuzzed.{suffix}"
+    path.write_bytes(mutated(valid_files[suffix], mutation))
+    try:
+        decoded = decode_image(path, min_px=16)
+    except ImageRejected as err:
+        assert str(err).startswith(str(path)) and "\n" not in str(err)
+    else:
+        assert decoded.rgb.ndim == 3 and np.isfinite(decoded.rgb).all()
+
+
+def test_decompression_bomb_is_refused_from_the_header(tmp_path):
+    """A 108-megapixel PNG of 337 KB is refused before its pixels are allocated (decoded RGB would take over 1 GB)."""
+    Image.new("1", (12000, 9000)).save(tmp_path / "bomb.png")
+    tracemalloc.start()
+    with pytest.raises(ImageRejected, match="12000x9000"):
+        decode_image(tmp_path / "bomb.png")
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 20e6, f"{peak / 1e6:.0f} MB allocated before refusing"

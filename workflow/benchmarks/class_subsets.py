@@ -17,21 +17,17 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-import yaml
-from harness import ROOT, publish
+from harness import ROOT, publish, validated_config
 
 from clothscope.classify import loocv
 from clothscope.feature_sets import classifier_candidates, joined_table
 from clothscope.features import STATUS_OK, read_table
-from clothscope.schema import apply_preset, load_schema, validate
 from clothscope.tables import PAPER_EXPERIMENTS
 
 
 def classify_config() -> dict:
     """The validated ``classify`` section of ``config/config.yaml``."""
-    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
-    config = apply_preset(config, ROOT / "config" / "presets")
-    return validate(config, load_schema(ROOT / "workflow" / "schemas" / "config.schema.yaml"), "config")["classify"]
+    return validated_config()["classify"]
 
 
 def scored_subsets(results: Path, label: str, settings: dict) -> list[dict]:

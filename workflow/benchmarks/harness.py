@@ -22,6 +22,16 @@ STAGES = ("geometry", "material", "normals")
 SUBSET = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_gauze_ivory,knit_jersey_charcoal,velvet_ivory"
 
 
+def validated_config() -> dict:
+    """``config/config.yaml`` with its preset merged and the schema's defaults filled in, as the workflow sees it."""
+    import yaml
+
+    from clothscope.schema import apply_preset, load_schema, validate
+
+    config = apply_preset(yaml.safe_load((ROOT / "config" / "config.yaml").read_text()), ROOT / "config" / "presets")
+    return validate(config, load_schema(ROOT / "workflow" / "schemas" / "config.schema.yaml"), "config")
+
+
 def write_sheet(images: list[str] | None, target: Path) -> Path:
     """Write the rows of ``config/samples.tsv`` for ``images`` (None or ``["all"]``: every row) to ``target``."""
     sheet = pd.read_csv(ROOT / "config" / "samples.tsv", sep="\t", dtype=str, keep_default_na=False)

@@ -306,6 +306,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/class_subsets.py"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py"),
+        BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),
+                        f"{py}/large_photo.py"),
         BenchmarkReport("What accuracy costs: presets and knobs", ("reports/cost_accuracy.md",), f"{py}/cost_accuracy.py"),
         BenchmarkReport("Normal-map stage knobs", ("reports/normals_sweep.md",), f"{py}/normals_sweep.py"),
         BenchmarkReport("Planned effects against the full-effects baseline",
