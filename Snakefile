@@ -27,6 +27,7 @@ include: "workflow/rules/reports.smk"
 
 
 rule all:
+    default_target: True
     input:
         prepared_images(),
         rejection_report(),
@@ -36,4 +37,3 @@ rule all:
         paper_tables_in_all(config["features"]["normal_source"]),
         fit_accuracy_report() if config["features"]["normal_source"] == "fitted" else [],
         diagnosis_outputs(),
-    default_target: True

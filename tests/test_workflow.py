@@ -46,6 +46,11 @@ def test_lint_is_clean(fresh_clone):
     assert result.returncode == 0 and "Congratulations" in result.stdout + result.stderr, result.stdout[-3000:]
 
 
+def test_snakefmt_is_clean(fresh_clone):
+    result = subprocess.run([sys.executable, "-m", "snakefmt", "--check", "."], cwd=fresh_clone, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr[-3000:]
+
+
 def test_bad_sample_sheet_stops_before_any_job_with_one_line(fresh_clone, tmp_path):
     sheet = tmp_path / "s.tsv"
     sheet.write_text("image_id\tpath\na\tx.png\na\ty.png\n")

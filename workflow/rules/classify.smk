@@ -11,26 +11,31 @@ rule classify:
         table=feature_table("{source}"),
         physics=config["classify"]["physics"],
         comparison=feature_set_comparison,
-        photo=lambda wildcards: [] if wildcards.source == "photo" else feature_table("photo"),
+        photo=lambda wildcards: (
+            [] if wildcards.source == "photo" else feature_table("photo")
+        ),
     output:
         reports=[classify_report(name) for name in CLASSIFY_REPORTS],
         model_arrays=os.path.join(RESULTS, "models", "{source}", "model.npz"),
         model_record=os.path.join(RESULTS, "models", "{source}", "model.json"),
-        physics=[os.path.join(RESULTS, "physics", "{source}", f"{image}.json") for image in IMAGE_IDS],
+        physics=[
+            os.path.join(RESULTS, "physics", "{source}", f"{image}.json")
+            for image in IMAGE_IDS
+        ],
+    log:
+        os.path.join(RESULTS, "logs", "classify", "{source}.log"),
+    conda:
+        "../../environment.yml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
     params:
         reg=config["classify"]["reg"],
         subspace=config["classify"]["subspace"],
         images=IMAGE_IDS,
         feature_set=config["classify"]["feature_set"],
         settings={key: config[key] for key in ("prepare", "fit", "features", "variant")},
-    log:
-        os.path.join(RESULTS, "logs", "classify", "{source}.log"),
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=10,
-    conda:
-        "../../environment.yml"
     script:
         "../scripts/classify.py"
 
@@ -45,18 +50,18 @@ rule feature_sets:
             category="Classifier",
         ),
         csv=feature_set_outputs()[1],
-    params:
-        reg=config["classify"]["reg"],
-        subspace=config["classify"]["subspace"],
-        fitted_set=f"auto_{config['features']['normal_source']}",
     log:
         os.path.join(RESULTS, "logs", "feature_sets.log"),
+    conda:
+        "../../environment.yml"
     threads: 1
     resources:
         mem_mb=2000,
         runtime=10,
-    conda:
-        "../../environment.yml"
+    params:
+        reg=config["classify"]["reg"],
+        subspace=config["classify"]["subspace"],
+        fitted_set=f"auto_{config['features']['normal_source']}",
     script:
         "../scripts/feature_sets.py"
 
@@ -68,20 +73,20 @@ rule paper_tables:
     output:
         md=reports_path("{source}", "paper_tables.md"),
         csv=reports_path("{source}", "paper_tables.csv"),
-    wildcard_constraints:
-        source="truth|fitted",
-    params:
-        settings=FEATURE_SETTINGS,
-        reg=config["classify"]["reg"],
-        images=image_sources(),
     log:
         os.path.join(RESULTS, "logs", "paper_tables", "{source}.log"),
+    wildcard_constraints:
+        source="truth|fitted",
+    conda:
+        "../../environment.yml"
     threads: 1
     resources:
         mem_mb=2000,
         runtime=10,
-    conda:
-        "../../environment.yml"
+    params:
+        settings=FEATURE_SETTINGS,
+        reg=config["classify"]["reg"],
+        images=image_sources(),
     script:
         "../scripts/paper_tables.py"
 
@@ -93,21 +98,21 @@ rule sweep:
     output:
         csv=reports_path("{source}", "sweep.csv"),
         png=reports_path("{source}", "sweep.png"),
+    log:
+        os.path.join(RESULTS, "logs", "sweep", "{source}.log"),
     wildcard_constraints:
         source="truth|fitted",
+    conda:
+        "../../environment.yml"
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
     params:
         settings=FEATURE_SETTINGS,
         sweep=config["classify"]["sweep"],
         reg=config["classify"]["reg"],
         images=image_sources(),
-    log:
-        os.path.join(RESULTS, "logs", "sweep", "{source}.log"),
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=10,
-    conda:
-        "../../environment.yml"
     script:
         "../scripts/sweep.py"
 
@@ -143,16 +148,16 @@ rule spectra_diagnosis:
             caption="../report/spectra_diagnosis.rst",
             category="Classifier",
         ),
-    params:
-        images=diagnosis_images(),
-        structure=config["features"]["structure"],
     log:
         os.path.join(RESULTS, "logs", "spectra_diagnosis.log"),
+    conda:
+        "../../environment.yml"
     threads: 1
     resources:
         mem_mb=2000,
         runtime=10,
-    conda:
-        "../../environment.yml"
+    params:
+        images=diagnosis_images(),
+        structure=config["features"]["structure"],
     script:
         "../scripts/spectra_diagnosis.py"

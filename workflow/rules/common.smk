@@ -19,8 +19,14 @@ def fail(message):
 
 try:
     config.update(apply_preset(config, PRESETS))
-    config.update(validate(config, load_schema(os.path.join(SCHEMAS, "config.schema.yaml")), "config"))
-    SAMPLES = load_sample_sheet(config["samples"], os.path.join(SCHEMAS, "samples.schema.yaml"))
+    config.update(
+        validate(
+            config, load_schema(os.path.join(SCHEMAS, "config.schema.yaml")), "config"
+        )
+    )
+    SAMPLES = load_sample_sheet(
+        config["samples"], os.path.join(SCHEMAS, "samples.schema.yaml")
+    )
 except InputError as err:
     fail(err)
 
@@ -59,7 +65,10 @@ def rejection_report():
 def synthetic_outputs(kind, dataset="synthetic"):
     """Rendered synthetic files of one kind ("image" or "truth") for every default image of a dataset."""
     suffix = {"image": ".png", "truth": ".truth.json"}[kind]
-    return [os.path.join(RESULTS, dataset, fabric, f"{image}{suffix}") for fabric, _, image in SYNTHETIC]
+    return [
+        os.path.join(RESULTS, dataset, fabric, f"{image}{suffix}")
+        for fabric, _, image in SYNTHETIC
+    ]
 
 
 # --- features and classifier (workflow/rules/features.smk, classify.smk) ---
@@ -76,7 +85,9 @@ wildcard_constraints:
 
 
 if "table" in IMAGE_IDS:
-    fail(f"{config['samples']}: image_id 'table' is reserved (results/features/<source>/table.parquet); rename it")
+    fail(
+        f"{config['samples']}: image_id 'table' is reserved (results/features/<source>/table.parquet); rename it"
+    )
 
 #: feature settings a row depends on (normal_source only picks the source that `all` builds)
 FEATURE_SETTINGS = row_settings(config["features"])
@@ -98,23 +109,39 @@ def normal_source_inputs(source, image):
         return {"prepared": os.path.join(RESULTS, "prepared", image)}
     path = SAMPLES.loc[image, "path"]
     truth = truth_paths(Path(path))
-    return {"image": path, **{key: str(truth[key]) for key in ("normal", "height", "json") if truth[key].is_file()}}
+    return {
+        "image": path,
+        **{
+            key: str(truth[key])
+            for key in ("normal", "height", "json")
+            if truth[key].is_file()
+        },
+    }
 
 
 def feature_inputs(wildcards):
-    if wildcards.image not in SAMPLES.index:  # e.g. "table": rule feature_table makes that file
+    if (
+        wildcards.image not in SAMPLES.index
+    ):  # e.g. "table": rule feature_table makes that file
         return {}
     return normal_source_inputs(wildcards.source, wildcards.image)
 
 
 def all_normal_inputs(wildcards):
     """Every image's normal-source files (paper tables and sweep recompute features from them)."""
-    return [f for image in IMAGE_IDS for f in normal_source_inputs(wildcards.source, image).values()]
+    return [
+        f
+        for image in IMAGE_IDS
+        for f in normal_source_inputs(wildcards.source, image).values()
+    ]
 
 
 def image_sources():
     """Image id to its sheet path and fit_normals folder (params of the table rules)."""
-    return {image: {"path": SAMPLES.loc[image, "path"], "fit_dir": fit_normals_dir(image)} for image in IMAGE_IDS}
+    return {
+        image: {"path": SAMPLES.loc[image, "path"], "fit_dir": fit_normals_dir(image)}
+        for image in IMAGE_IDS
+    }
 
 
 def feature_rows(wildcards):
@@ -129,8 +156,15 @@ def reports_path(source, name):
     return os.path.join(RESULTS, "reports", source, name)
 
 
-CLASSIFY_REPORTS = ("accuracy.json", "confusion.csv", "confusion.png", "per_class.csv", "predictions.csv", "images.tsv",
-                    "summary.md")
+CLASSIFY_REPORTS = (
+    "accuracy.json",
+    "confusion.csv",
+    "confusion.png",
+    "per_class.csv",
+    "predictions.csv",
+    "images.tsv",
+    "summary.md",
+)
 #: ... and those shown in the Snakemake report (`snakemake --report report.html`)
 CLASSIFY_IN_REPORT = ("summary.md", "confusion.png", "per_class.csv")
 
@@ -140,8 +174,13 @@ def classify_report(name):
     path = reports_path("{source}", name)
     if name not in CLASSIFY_IN_REPORT:
         return path
-    return report(path, caption="../report/classify.rst", category="Classifier", subcategory="{source} maps",
-                  labels={"source": "{source}", "file": name})
+    return report(
+        path,
+        caption="../report/classify.rst",
+        category="Classifier",
+        subcategory="{source} maps",
+        labels={"source": "{source}", "file": name},
+    )
 
 
 def classify_outputs(source):
@@ -158,26 +197,41 @@ def report_sources():
 
 
 def feature_set_outputs():
-    return [os.path.join(RESULTS, "reports", f"feature_sets.{ext}") for ext in ("md", "csv")]
+    return [
+        os.path.join(RESULTS, "reports", f"feature_sets.{ext}") for ext in ("md", "csv")
+    ]
 
 
 def feature_set_comparison(wildcards):
     """The feature-set CSV, for the classifier of the configured source (its summary line)."""
-    return feature_set_outputs()[1] if wildcards.source == config["features"]["normal_source"] else []
+    return (
+        feature_set_outputs()[1]
+        if wildcards.source == config["features"]["normal_source"]
+        else []
+    )
 
 
 def physics_outputs(source):
-    return [os.path.join(RESULTS, "physics", source, f"{image}.json") for image in IMAGE_IDS]
+    return [
+        os.path.join(RESULTS, "physics", source, f"{image}.json") for image in IMAGE_IDS
+    ]
 
 
 def paper_table_outputs(source):
-    return [reports_path(source, "paper_tables.md"), reports_path(source, "paper_tables.csv")]
+    return [
+        reports_path(source, "paper_tables.md"),
+        reports_path(source, "paper_tables.csv"),
+    ]
 
 
 def paper_tables_in_all(source):
     """The paper tables, for `all` only when the sheet labels every class of the paper's first experiment."""
     labelled = set(SAMPLES["fabric_class"].fillna("").astype(str))
-    return paper_table_outputs(source) if set(PAPER_EXPERIMENTS[0].classes) <= labelled else []
+    return (
+        paper_table_outputs(source)
+        if set(PAPER_EXPERIMENTS[0].classes) <= labelled
+        else []
+    )
 
 
 def sweep_outputs(source):
@@ -190,22 +244,39 @@ def fit_dir(stage):
 
 def images_with_truth():
     """Sample-sheet images that carry synthetic ground truth (the accuracy report needs it)."""
-    return [i for i in IMAGE_IDS if truth_paths(Path(SAMPLES.loc[i, "path"]))["json"].exists()]
+    return [
+        i
+        for i in IMAGE_IDS
+        if truth_paths(Path(SAMPLES.loc[i, "path"]))["json"].exists()
+    ]
 
 
 def diagnosis_images():
     """Images with ground truth: their class, photo path and fit_normals folder (params of spectra_diagnosis)."""
-    return {i: {"fabric_class": SAMPLES.loc[i, "fabric_class"], "path": SAMPLES.loc[i, "path"], "fit_dir": fit_normals_dir(i)}
-            for i in images_with_truth()}
+    return {
+        i: {
+            "fabric_class": SAMPLES.loc[i, "fabric_class"],
+            "path": SAMPLES.loc[i, "path"],
+            "fit_dir": fit_normals_dir(i),
+        }
+        for i in images_with_truth()
+    }
 
 
 def diagnosis_outputs():
     """The true-against-fitted spectra report, when the sheet has images with ground truth and the source is fitted."""
     if config["features"]["normal_source"] != "fitted" or not images_with_truth():
         return []
-    return [os.path.join(RESULTS, "reports", "diagnosis", f"spectra.{ext}") for ext in ("md", "csv", "png")]
+    return [
+        os.path.join(RESULTS, "reports", "diagnosis", f"spectra.{ext}")
+        for ext in ("md", "csv", "png")
+    ]
 
 
 def fit_accuracy_report():
     """The inverse renderer's accuracy report, when the sheet has images with ground truth."""
-    return [os.path.join(RESULTS, "reports", "fit_accuracy.md")] if images_with_truth() else []
+    return (
+        [os.path.join(RESULTS, "reports", "fit_accuracy.md")]
+        if images_with_truth()
+        else []
+    )

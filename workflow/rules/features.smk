@@ -16,22 +16,22 @@ rule features:
             subcategory="{source}",
             labels={"image": "{image}", "source": "{source}"},
         ),
-    params:
-        settings=FEATURE_SETTINGS,
-        fabric_class=lambda wildcards: SAMPLES.loc[wildcards.image, "fabric_class"],
-        path=sheet_path,
-    wildcard_constraints:
-        image=r"(?!table$)[A-Za-z0-9][A-Za-z0-9_.-]*",
     log:
         os.path.join(RESULTS, "logs", "features", "{source}", "{image}.log"),
     benchmark:
         os.path.join(RESULTS, "benchmarks", "features", "{source}", "{image}.tsv")
+    wildcard_constraints:
+        image=r"(?!table$)[A-Za-z0-9][A-Za-z0-9_.-]*",
+    conda:
+        "../../environment.yml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=5,
-    conda:
-        "../../environment.yml"
+    params:
+        settings=FEATURE_SETTINGS,
+        fabric_class=lambda wildcards: SAMPLES.loc[wildcards.image, "fabric_class"],
+        path=sheet_path,
     script:
         "../scripts/features.py"
 
@@ -43,11 +43,11 @@ rule feature_table:
         features_path("{source}", "table.parquet"),
     log:
         os.path.join(RESULTS, "logs", "feature_table", "{source}.log"),
+    conda:
+        "../../environment.yml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=5,
-    conda:
-        "../../environment.yml"
     script:
         "../scripts/feature_table.py"

@@ -7,21 +7,21 @@ rule fit_geometry:
         prepared=os.path.join(RESULTS, "prepared", "{image}"),
     output:
         directory(fit_dir("geometry")),
-    params:
-        settings=config["fit"]["geometry"],
-        variant=config["variant"],
-        full_effects=config["fit"]["full_effects"],
     log:
         os.path.join(RESULTS, "logs", "fit_geometry", "{image}.log"),
     benchmark:
         os.path.join(RESULTS, "benchmarks", "fit_geometry", "{image}.tsv")
+    conda:
+        "../../environment.yml"
     threads: config["fit"]["threads"]
     resources:
         mem_mb=2000,
         runtime=10,
         gpu=GPUS,
-    conda:
-        "../../environment.yml"
+    params:
+        settings=config["fit"]["geometry"],
+        variant=config["variant"],
+        full_effects=config["fit"]["full_effects"],
     script:
         "../scripts/fit_stage.py"
 
@@ -32,21 +32,21 @@ rule fit_material:
         previous=fit_dir("geometry"),
     output:
         directory(fit_dir("material")),
-    params:
-        settings=config["fit"]["material"],
-        variant=config["variant"],
-        full_effects=config["fit"]["full_effects"],
     log:
         os.path.join(RESULTS, "logs", "fit_material", "{image}.log"),
     benchmark:
         os.path.join(RESULTS, "benchmarks", "fit_material", "{image}.tsv")
+    conda:
+        "../../environment.yml"
     threads: config["fit"]["threads"]
     resources:
         mem_mb=2000,
         runtime=10,
         gpu=GPUS,
-    conda:
-        "../../environment.yml"
+    params:
+        settings=config["fit"]["material"],
+        variant=config["variant"],
+        full_effects=config["fit"]["full_effects"],
     script:
         "../scripts/fit_stage.py"
 
@@ -63,21 +63,21 @@ rule fit_normals:
             category="Inverse rendering",
             subcategory="{image}",
         ),
-    params:
-        settings=config["fit"]["normals"],
-        variant=config["variant"],
-        full_effects=config["fit"]["full_effects"],
     log:
         os.path.join(RESULTS, "logs", "fit_normals", "{image}.log"),
     benchmark:
         os.path.join(RESULTS, "benchmarks", "fit_normals", "{image}.tsv")
+    conda:
+        "../../environment.yml"
     threads: config["fit"]["threads"]
     resources:
         mem_mb=2000,
         runtime=10,
         gpu=GPUS,
-    conda:
-        "../../environment.yml"
+    params:
+        settings=config["fit"]["normals"],
+        variant=config["variant"],
+        full_effects=config["fit"]["full_effects"],
     script:
         "../scripts/fit_stage.py"
 
@@ -87,18 +87,22 @@ rule fit_accuracy:
         fits=expand(fit_dir("normals"), image=images_with_truth()),
     output:
         table=os.path.join(RESULTS, "reports", "fit_accuracy.csv"),
-        summary=report(os.path.join(RESULTS, "reports", "fit_accuracy.md"), caption="../report/fit_accuracy.rst", category="Inverse rendering"),
-    params:
-        images=images_with_truth(),
-        truth={i: str(SAMPLES.loc[i, "path"]) for i in images_with_truth()},
-        benchmarks=os.path.join(RESULTS, "benchmarks"),
+        summary=report(
+            os.path.join(RESULTS, "reports", "fit_accuracy.md"),
+            caption="../report/fit_accuracy.rst",
+            category="Inverse rendering",
+        ),
     log:
         os.path.join(RESULTS, "logs", "fit_accuracy.log"),
+    conda:
+        "../../environment.yml"
     threads: 1
     resources:
         mem_mb=2000,
         runtime=10,
-    conda:
-        "../../environment.yml"
+    params:
+        images=images_with_truth(),
+        truth={i: str(SAMPLES.loc[i, "path"]) for i in images_with_truth()},
+        benchmarks=os.path.join(RESULTS, "benchmarks"),
     script:
         "../scripts/fit_accuracy.py"

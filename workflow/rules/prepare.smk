@@ -7,19 +7,19 @@ rule prepare:
         image_path,
     output:
         directory(os.path.join(RESULTS, "prepared", "{image}")),
-    params:
-        path=sheet_path,
-        settings=config["prepare"],
-        lattice=config["features"]["structure"],
     log:
         os.path.join(RESULTS, "logs", "prepare", "{image}.log"),
     benchmark:
         os.path.join(RESULTS, "benchmarks", "prepare", "{image}.tsv")
+    conda:
+        "../../environment.yml"
     threads: 1
     resources:
         mem_mb=2000,
         runtime=5,
-    conda:
-        "../../environment.yml"
+    params:
+        path=sheet_path,
+        settings=config["prepare"],
+        lattice=config["features"]["structure"],
     script:
         "../scripts/prepare.py"

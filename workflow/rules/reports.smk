@@ -13,11 +13,11 @@ rule rejection_report:
         summary=os.path.join(RESULTS, "reports", "prepared.tsv"),
     log:
         os.path.join(RESULTS, "logs", "rejection_report.log"),
+    conda:
+        "../../environment.yml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
-    conda:
-        "../../environment.yml"
     script:
         "../scripts/rejection_report.py"

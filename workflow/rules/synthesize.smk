@@ -7,26 +7,36 @@ rule synthesize:
     output:
         image=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.png"),
         truth=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.truth.json"),
-        normal=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.truth-normal.png"),
-        height=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.truth-height.png"),
+        normal=os.path.join(
+            RESULTS, "{dataset}", "{fabric}", "{image}.truth-normal.png"
+        ),
+        height=os.path.join(
+            RESULTS, "{dataset}", "{fabric}", "{image}.truth-height.png"
+        ),
         fold=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.truth-fold.npy"),
+    log:
+        os.path.join(
+            RESULTS, "logs", "synthesize", "{dataset}", "{fabric}", "{image}.log"
+        ),
+    benchmark:
+        os.path.join(
+            RESULTS, "benchmarks", "synthesize", "{dataset}", "{fabric}", "{image}.tsv"
+        )
     wildcard_constraints:
         dataset="synthetic|holdout",
-    params:
-        settings=config["synthesize"],
-        seed=lambda wildcards: config["synthesize"]["seed" if wildcards.dataset == "synthetic" else "holdout_seed"],
-        variant=config["variant"],
-    log:
-        os.path.join(RESULTS, "logs", "synthesize", "{dataset}", "{fabric}", "{image}.log"),
-    benchmark:
-        os.path.join(RESULTS, "benchmarks", "synthesize", "{dataset}", "{fabric}", "{image}.tsv")
+    conda:
+        "../../environment.yml"
     threads: 2
     resources:
         mem_mb=3000,
         runtime=10,
         gpu=GPUS,
-    conda:
-        "../../environment.yml"
+    params:
+        settings=config["synthesize"],
+        seed=lambda wildcards: config["synthesize"][
+            "seed" if wildcards.dataset == "synthetic" else "holdout_seed"
+        ],
+        variant=config["variant"],
     script:
         "../scripts/synthesize.py"
 
@@ -41,16 +51,16 @@ rule check_synthetic:
             caption="../report/synthetic_check.rst",
             category="Synthetic data",
         ),
-    params:
-        committed=config["synthesize"]["committed"],
     log:
         os.path.join(RESULTS, "logs", "check_synthetic.log"),
+    conda:
+        "../../environment.yml"
     threads: 1
     resources:
         mem_mb=1000,
         runtime=5,
-    conda:
-        "../../environment.yml"
+    params:
+        committed=config["synthesize"]["committed"],
     script:
         "../scripts/check_synthetic.py"
 
@@ -60,15 +70,15 @@ rule holdout_set:
         synthetic_outputs("image", "holdout"),
     output:
         os.path.join(RESULTS, "holdout", "samples.tsv"),
-    params:
-        seed=config["synthesize"]["holdout_seed"],
     log:
         os.path.join(RESULTS, "logs", "holdout_set.log"),
+    conda:
+        "../../environment.yml"
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
-    conda:
-        "../../environment.yml"
+    params:
+        seed=config["synthesize"]["holdout_seed"],
     script:
         "../scripts/holdout_sheet.py"
