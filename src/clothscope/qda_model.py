@@ -78,7 +78,8 @@ class QdaParameters:
         scaler, qda = pipeline.named_steps["scale"], pipeline.named_steps["qda"]
         project = pipeline.named_steps.get("project")
         d = scaler.mean_.shape[0]
-        projection = np.eye(d) if project is None else project.scalings_[:, : project._max_components]
+        # LDA's transform with the eigen solver: X @ scalings_, first min(C - 1, d) columns
+        projection = np.eye(d) if project is None else project.scalings_[:, : min(len(project.classes_) - 1, d)]
         return cls(
             mean=np.asarray(scaler.mean_, float), scale=np.asarray(scaler.scale_, float),
             projection=np.asarray(projection, float), class_means=np.asarray(qda.means_, float),
