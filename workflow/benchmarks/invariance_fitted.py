@@ -61,7 +61,8 @@ def transformed_sheet(sheet: pd.DataFrame, out: Path) -> pd.DataFrame:
         for name, transform in PHOTO_TRANSFORMS.items():
             path = out / "photos" / name / f"{row['image_id']}.png"
             path.parent.mkdir(parents=True, exist_ok=True)
-            write_png(path, transform(srgb))
+            if not path.exists():  # the same photo again would look new to Snakemake and redo its fit
+                write_png(path, transform(srgb))
             rows.append({**row.to_dict(), "image_id": f"{row['image_id']}__{name}", "path": str(path.relative_to(ROOT)),
                          "source": f"{name} of {row['image_id']}"})
     return pd.DataFrame(rows, columns=sheet.columns)
