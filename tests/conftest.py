@@ -77,7 +77,7 @@ def broken_and_valid_files(folder: Path) -> dict[str, tuple[Path, bool]]:
     Image.new("1", (12000, 9000)).save(add("huge.png", False))
     nan = np.linspace(0, 1, 96 * 128, dtype=np.float32).reshape(96, 128)
     nan[5, 5] = np.nan
-    Image.fromarray(nan, mode="F").save(add("nan.tif", False))
+    Image.fromarray(nan, mode="F").save(add("nanpixels.tif", False))
     add("directory.png", False).mkdir()
     loop = add("loop.png", False)
     loop.symlink_to(loop)
@@ -87,7 +87,7 @@ def broken_and_valid_files(folder: Path) -> dict[str, tuple[Path, bool]]:
 
 
 #: what the rejection of each file-level problem of :func:`broken_and_valid_files` says
-FILE_PROBLEMS = {"nan": "1 pixel(s) hold NaN or infinite values", "directory": "is a directory", "loop": "symlink loop", "dangling": "broken symlink", "missing": "does not exist",
+FILE_PROBLEMS = {"nanpixels": "1 pixel(s) hold NaN or infinite values", "directory": "is a directory", "loop": "symlink loop", "dangling": "broken symlink", "missing": "does not exist",
                  "empty": "empty (0 bytes)"}
 
 

@@ -65,9 +65,14 @@ def test_constant_map_has_no_peaks(value, size):
 @given(st.integers(0, 2**32 - 1))
 def test_gaussian_noise_gives_finite_features_and_few_peaks(seed):
     z = np.random.default_rng(seed).normal(0.9, 0.05, (64, 64))
-    result = analyse_normal_map(z, SpectrumSettings(n_peaks=2, alpha=3.0, dc_radius=8.0, peak_size=12.0, reference_resolution=256))
+    result = analyse_normal_map(z, SpectrumSettings(n_peaks=2, alpha=3.0, dc_radius=8.0, peak_size=12.0, reference_resolution=256,
+                                                    significance=CALIBRATED))
     assert _all_finite(result.features) and _all_finite(extra_features(result))
     assert len(result.raw_peaks) <= 2
+
+
+#: the noise-calibrated peak test's significance (features.significance; off by default)
+CALIBRATED = 6.0
 
 
 @settings(max_examples=30, deadline=None)
@@ -77,7 +82,7 @@ def test_noise_finds_no_threads(seed, size, smoothing):
     z = np.random.default_rng(seed).normal(0.9, 0.05, (size, size))
     if smoothing:
         z = ndimage.gaussian_filter(z, smoothing)
-    assert len(analyse_normal_map(z, SpectrumSettings()).raw_peaks) <= 2
+    assert len(analyse_normal_map(z, SpectrumSettings(significance=CALIBRATED)).raw_peaks) <= 2
     # the paper's test, for comparison, calls dozens of noise maxima peaks
     assert len(analyse_normal_map(z, SpectrumSettings().paper()).raw_peaks) > 10
 
@@ -86,7 +91,7 @@ def test_noise_false_alarm_rate_is_about_a_tenth_of_a_peak_per_map():
     rng = np.random.default_rng(2026)
     maps = [rng.normal(size=(256, 256)) for _ in range(10)] + [ndimage.gaussian_filter(rng.normal(size=(256, 256)), 1.5)
                                                               for _ in range(10)]
-    false_peaks = sum(len(analyse_normal_map(z, SpectrumSettings()).raw_peaks) for z in maps)
+    false_peaks = sum(len(analyse_normal_map(z, SpectrumSettings(significance=CALIBRATED)).raw_peaks) for z in maps)
     assert false_peaks / len(maps) <= 0.5
 
 
@@ -95,8 +100,8 @@ def test_every_woven_or_knitted_class_keeps_its_lattice_peaks(fabric):
     """The noise-calibrated test keeps the lattice: the peaks the features read are those found without it."""
     for color in ("red", "navy", "ivory"):
         normal, _ = _truth(f"{fabric}_{color}")
-        calibrated = analyse_normal_map(normal, SpectrumSettings())
-        uncalibrated = analyse_normal_map(normal, replace(SpectrumSettings(), significance=0.0))
+        calibrated = analyse_normal_map(normal, SpectrumSettings(significance=CALIBRATED))
+        uncalibrated = analyse_normal_map(normal, SpectrumSettings())
         assert calibrated.peaks and calibrated.peaks == uncalibrated.peaks
         assert calibrated.dominant_period_px == pytest.approx(uncalibrated.dominant_period_px)
 

@@ -199,7 +199,8 @@ class SpectrumSettings:
         map's own noise, whatever its colour: at 6, white or smoothed noise maps
         of 64-512 texels give under one false peak each on average
         (``tests/test_spectrum.py`` bounds it), where the paper's test finds
-        dozens. 0 turns the test off (the paper's Algorithm 2).
+        dozens. 0 (default) turns the test off: the paper's Algorithm 2 (see
+        docs/design.md for why it is not on by default).
 
     ``SpectrumSettings(radius_normalisation="max", peak_count="all", significance=0)``
     is the paper-faithful Algorithm 2 (:meth:`paper` returns it).
@@ -214,7 +215,7 @@ class SpectrumSettings:
     radius_normalisation: str = "strong_max"
     peak_count: str = "strong"
     strong_fraction: float = 0.5
-    significance: float = 6.0
+    significance: float = 0.0
 
     def __post_init__(self) -> None:
         if isinstance(self.n_peaks, bool) or not isinstance(self.n_peaks, (int, np.integer)) or self.n_peaks < 1:
