@@ -55,11 +55,12 @@ def cmd_predict(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
+    from .physics import load_physics_table
     from .predict import STAGES, Prediction, model_sources, predict_photo, unique_ids
     from .qda_model import load_model
 
     model = load_model(args.model)
-    physics = args.physics or model.metadata.get("metadata", {}).get("physics_table") or "config/physics.yaml"
+    physics = load_physics_table(args.physics or model.metadata.get("metadata", {}).get("physics_table") or "config/physics.yaml")
     out = Path(args.out)
     log_path = out / "predict.log"
     out.mkdir(parents=True, exist_ok=True)

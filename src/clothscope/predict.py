@@ -10,7 +10,6 @@ training images' were.
 from __future__ import annotations
 
 import logging
-import os
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -23,7 +22,7 @@ from .atomic import write_json
 from .classify import posterior_column, predict
 from .feature_sets import joined_table
 from .features import STATUS_OK, features_job
-from .physics import load_physics_table, physics_for
+from .physics import PhysicsEntry, physics_for
 from .prepare import PrepareSettings, prepare_image
 from .qda_model import QdaModel
 from .structure import StructureSettings
@@ -90,7 +89,7 @@ def _fit(prepared: Path, work: Path, settings: dict[str, Any], threads: int, log
     return work / "normals"
 
 
-def predict_photo(photo: str, image_id: str, model: QdaModel, physics_path: str | os.PathLike[str], out: Path,
+def predict_photo(photo: str, image_id: str, model: QdaModel, physics_table: dict[str, PhysicsEntry], out: Path,
                   threads: int, log: logging.Logger, step: Callable[[str], None]) -> Prediction:
     """Prepare, fit (when the model needs it), featurise and classify one photo into ``out/<image_id>/``."""
     settings = training_settings(model)
@@ -122,5 +121,5 @@ def predict_photo(photo: str, image_id: str, model: QdaModel, physics_path: str 
     target = work / "physics.json"
     write_json(target, {"image_id": image_id, "photo": str(photo), "predicted_class": str(result["predicted_class"]),
                         "posteriors": posteriors, "model": model.metadata.get("arrays_sha256"),
-                        "physics": physics_for(posteriors, load_physics_table(physics_path))})
+                        "physics": physics_for(posteriors, physics_table)})
     return Prediction(photo, image_id, str(result["predicted_class"]), max(posteriors.values()), str(target))

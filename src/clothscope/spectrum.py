@@ -454,20 +454,21 @@ def ring_noise_threshold(filtered: np.ndarray, radius: np.ndarray, annulus: np.n
     :data:`MIN_RING_BINS` bins (so that a peak never makes up most of its own
     ring); outside the annulus the threshold is infinite.
     """
-    ring = np.floor(radius / width).astype(int)
-    threshold = np.full(filtered.shape, np.inf)
-    group: list[int] = []
-    rings = np.unique(ring[annulus])
-    for index, k in enumerate(rings):
-        group.append(int(k))
-        members = annulus & np.isin(ring, group)
+    ring = np.floor(radius[annulus] / width).astype(int)
+    values = filtered[annulus]
+    inside = np.empty(values.shape)
+    start = None
+    for index, k in enumerate(rings := np.unique(ring)):
+        start = k if start is None else start
+        members = (ring >= start) & (ring <= k)
         if members.sum() < MIN_RING_BINS and index < len(rings) - 1:
             continue
-        values = filtered[members]
-        median = float(np.median(values))
-        spread = 1.4826 * float(np.median(np.abs(values - median)))
-        threshold[members] = median + significance * spread
-        group = []
+        median = float(np.median(values[members]))
+        spread = 1.4826 * float(np.median(np.abs(values[members] - median)))
+        inside[members] = median + significance * spread
+        start = None
+    threshold = np.full(filtered.shape, np.inf)
+    threshold[annulus] = inside
     return threshold
 
 
