@@ -68,17 +68,20 @@ def not_measured(command: str) -> str:
 
 
 def workflow_runs(results: Path) -> list[Run]:
-    """The design run, the held-out run and the colour-texture experiment, with the commands that make them."""
+    """The design run, the held-out run, the capture-realistic field set and the colour-texture experiment, with their commands."""
     r = shown(results)
     own_folder = "" if r == "results" else f" --config results={r}"
     design = ".venv/bin/snakemake --cores 2" + own_folder
     holdout = (f".venv/bin/snakemake --cores 2 holdout_set{own_folder} && .venv/bin/snakemake --cores 2 "
                f"--config samples={r}/holdout/samples.tsv results={r}/holdout/run")
+    field = (f".venv/bin/snakemake --cores 2 field_set{own_folder} && .venv/bin/snakemake --cores 2 "
+             f"--config samples={r}/field/samples.tsv results={r}/field/run")
     albedo = f".venv/bin/snakemake --cores 2 --config results={r}/exp_albedo fit='{{normals: {{albedo_weight: 0.05}}}}'"
     default_sheet = ROOT / "config" / "samples.tsv"
     return [
         Run("design", results, default_sheet, design),
         Run("held-out", results / "holdout" / "run", results / "holdout" / "samples.tsv", holdout),
+        Run("field", results / "field" / "run", results / "field" / "samples.tsv", field),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -302,6 +305,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
     return [
         BenchmarkReport("Structure descriptor settings, design and held-out", ("reports/structure_sweep.md",),
                         f"{py}/structure_sweep.py"),
+        BenchmarkReport("The capture-realistic field set: generator draws and thread periods", ("bench/field_set.md",),
+                        f"{py}/field_set.py"),
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
                         f"{py}/class_subsets.py"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),

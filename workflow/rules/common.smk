@@ -5,7 +5,7 @@ import sys
 from clothscope.imageio import file_problem
 from clothscope.samples import load_sample_sheet
 from clothscope.schema import InputError, apply_preset, load_schema, validate
-from clothscope.synth.fabrics import FABRICS
+from clothscope.synth.field import FIELD_FABRICS, field_index
 from clothscope.synth.generate import dataset_index
 
 SCHEMAS = os.path.join(workflow.basedir, "workflow", "schemas")
@@ -35,11 +35,12 @@ IMAGE_IDS = list(SAMPLES["image_id"])
 #: rules that can use a GPU ask for one only when the CUDA variant is forced
 GPUS = 1 if config["variant"] == "cuda_ad_rgb" else 0
 SYNTHETIC = dataset_index(config["synthesize"]["colors_per_class"])
+FIELD = field_index(config["synthesize"]["field"]["images_per_class"])
 
 
 wildcard_constraints:
     image=r"[A-Za-z0-9][A-Za-z0-9_.-]*",
-    fabric="|".join(FABRICS),
+    fabric="|".join(FIELD_FABRICS),
 
 
 def image_path(wildcards):
@@ -68,6 +69,14 @@ def synthetic_outputs(kind, dataset="synthetic"):
     return [
         os.path.join(RESULTS, dataset, fabric, f"{image}{suffix}")
         for fabric, _, image in SYNTHETIC
+    ]
+
+
+def field_outputs():
+    """Every photo of the capture-realistic field set (rule synthesize_field)."""
+    return [
+        os.path.join(RESULTS, "field", fabric, f"{image}.jpg")
+        for fabric, _, image in FIELD
     ]
 
 

@@ -1,6 +1,7 @@
 # Re-render the embedded synthetic dataset from its seed and compare it with the
-# committed copy (target: check_synthetic), or render the held-out set from another seed
-# (target: holdout_set, into results/holdout/ with its sample sheet). Not part of `all`.
+# committed copy (target: check_synthetic), render the held-out set from another seed
+# (target: holdout_set, into results/holdout/ with its sample sheet), or render the
+# capture-realistic field set (target: field_set, results/field/). Not part of `all`.
 
 
 rule synthesize:
@@ -80,5 +81,55 @@ rule holdout_set:
         runtime=5,
     params:
         seed=config["synthesize"]["holdout_seed"],
+        dataset="synthetic",
     script:
-        "../scripts/holdout_sheet.py"
+        "../scripts/dataset_sheet.py"
+
+
+rule synthesize_field:
+    output:
+        image=os.path.join(RESULTS, "field", "{fabric}", "{image}.jpg"),
+        truth=os.path.join(RESULTS, "field", "{fabric}", "{image}.truth.json"),
+        normal=os.path.join(RESULTS, "field", "{fabric}", "{image}.truth-normal.png"),
+        height=os.path.join(RESULTS, "field", "{fabric}", "{image}.truth-height.png"),
+        fold=os.path.join(RESULTS, "field", "{fabric}", "{image}.truth-fold.npy"),
+    log:
+        os.path.join(RESULTS, "logs", "synthesize_field", "{fabric}", "{image}.log"),
+    benchmark:
+        os.path.join(
+            RESULTS, "benchmarks", "synthesize_field", "{fabric}", "{image}.tsv"
+        )
+    wildcard_constraints:
+        image=r"[a-z_]+_\d\d",
+    conda:
+        "../../environment.yml"
+    threads: 2
+    resources:
+        mem_mb=6000,
+        runtime=15,
+        gpu=GPUS,
+    params:
+        settings=config["synthesize"]["field"],
+        variant=config["variant"],
+    script:
+        "../scripts/synthesize_field.py"
+
+
+rule field_set:
+    input:
+        field_outputs(),
+    output:
+        os.path.join(RESULTS, "field", "samples.tsv"),
+    log:
+        os.path.join(RESULTS, "logs", "field_set.log"),
+    conda:
+        "../../environment.yml"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    params:
+        seed=config["synthesize"]["field"]["seed"],
+        dataset="field",
+    script:
+        "../scripts/dataset_sheet.py"

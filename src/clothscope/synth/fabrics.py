@@ -17,6 +17,9 @@ PLAIN = np.array([[1, 0], [0, 1]])
 BASKET = np.array([[1, 1, 0, 0], [1, 1, 0, 0], [0, 0, 1, 1], [0, 0, 1, 1]])
 #: 5-harness warp-faced satin: each warp floats over four wefts, under one.
 SATIN5 = 1 - np.array([[1 if (j - 2 * i) % 5 == 0 else 0 for i in range(5)] for j in range(5)])
+#: Warp-faced twills: each warp floats over two (2/1) or three (3/1, denim) wefts, stepping one per row.
+TWILL21 = np.array([[1 if (i - j) % 3 < 2 else 0 for i in range(3)] for j in range(3)])
+TWILL31 = np.array([[1 if (i - j) % 4 < 3 else 0 for i in range(4)] for j in range(4)])
 
 
 @dataclass(frozen=True)
@@ -80,17 +83,28 @@ def crossing_elevation(along: np.ndarray, states: np.ndarray) -> np.ndarray:
     return states[0] * (1 - blend) + states[1] * blend
 
 
-def woven_height(a: np.ndarray, b: np.ndarray, spec: FabricSpec, pattern: np.ndarray, jitter: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def woven_height(a: np.ndarray, b: np.ndarray, spec: FabricSpec, pattern: np.ndarray, jitter: np.ndarray,
+                 width_scale: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Height (periods) and yarn coverage of a woven fabric at cloth coordinates (a, b) in periods.
 
     Warp yarns run along b (column i = floor(a)), weft yarns along a (row j = floor(b)).
     ``jitter`` holds small per-yarn centre offsets (periods), indexed modulo its length.
+    ``width_scale`` optionally multiplies the yarn width of the warp and the weft
+    at each sample (slub yarns: thick and thin places along a yarn).
     """
+    return woven_layers(a, b, spec, pattern, jitter, width_scale)[:2]
+
+
+def woven_layers(a: np.ndarray, b: np.ndarray, spec: FabricSpec, pattern: np.ndarray, jitter: np.ndarray,
+                 width_scale: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`woven_height`'s height and coverage, plus where the warp lies on top (for yarn colours)."""
     repeat = pattern.shape[0]
     i = np.floor(a).astype(np.int64)
     j = np.floor(b).astype(np.int64)
-    warp_x = (a - i - 0.5 - jitter[i % len(jitter)]) * 2 / spec.yarn_width
-    weft_x = (b - j - 0.5 - jitter[(j + 7) % len(jitter)]) * 2 / spec.yarn_width
+    warp_width, weft_width = (spec.yarn_width, spec.yarn_width) if width_scale is None else (
+        spec.yarn_width * width_scale[0], spec.yarn_width * width_scale[1])
+    warp_x = (a - i - 0.5 - jitter[i % len(jitter)]) * 2 / warp_width
+    weft_x = (b - j - 0.5 - jitter[(j + 7) % len(jitter)]) * 2 / weft_width
     # crossing rows below/above the sample along each yarn
     j_lo = np.floor(b - 0.5).astype(np.int64)
     i_lo = np.floor(a - 0.5).astype(np.int64)
@@ -101,7 +115,7 @@ def woven_height(a: np.ndarray, b: np.ndarray, spec: FabricSpec, pattern: np.nda
     floor = -spec.undulation - 0.5 * spec.relief
     height = np.maximum(np.maximum(warp, weft), floor)
     coverage = (np.abs(warp_x) < 1) | (np.abs(weft_x) < 1)
-    return height, coverage
+    return height, coverage, warp >= weft
 
 
 def _segment_distance(px, py, ax, ay, bx, by):

@@ -70,11 +70,14 @@ def cloth_mesh(mi: ModuleType, positions: np.ndarray, texcoords: np.ndarray, kee
     return mesh
 
 
-def cloth_bsdf(mi: ModuleType, spec: FabricSpec, color: np.ndarray, roughness: float, specular: float) -> Any:
-    """Principled reflection; the thin-sheet variant with diffuse transmission for sheer cloth only."""
+def cloth_bsdf(mi: ModuleType, spec: FabricSpec, color: np.ndarray | dict[str, Any], roughness: float, specular: float) -> Any:
+    """Principled reflection; the thin-sheet variant with diffuse transmission for sheer cloth only.
+
+    ``color`` is one linear RGB colour or a Mitsuba texture description.
+    """
     principled = {
         "type": "principled",
-        "base_color": {"type": "rgb", "value": [float(c) for c in color]},
+        "base_color": color if isinstance(color, dict) else {"type": "rgb", "value": [float(c) for c in color]},
         "roughness": float(roughness),
         "specular": float(specular),
     }
@@ -109,8 +112,8 @@ def effects_for(spec: FabricSpec, spp: int) -> dict[str, Any]:
     }
 
 
-def scene_dict(mi: ModuleType, mesh: Any, camera: Camera, light: Light, effects: dict[str, Any], backdrop: np.ndarray | None, seed: int) -> dict[str, Any]:
-    """Assemble the Mitsuba scene description."""
+def scene_dict(mi: ModuleType, mesh: Any, camera: Camera, light: Light | None, effects: dict[str, Any], backdrop: np.ndarray | None, seed: int) -> dict[str, Any]:
+    """Assemble the Mitsuba scene description (without a light when ``light`` is None: the caller adds its own)."""
     if effects["integrator"] == "path":
         integrator = {"type": "path", "max_depth": effects["max_depth"], "hide_emitters": True}
     else:
@@ -125,14 +128,15 @@ def scene_dict(mi: ModuleType, mesh: Any, camera: Camera, light: Light, effects:
             "film": {"type": "hdrfilm", "width": camera.resolution, "height": camera.resolution, "pixel_format": "rgb"},
             "sampler": {"type": "independent", "sample_count": effects["spp"], "seed": seed},
         },
-        "light": {
+    }
+    if light is not None:
+        scene["light"] = {
             "type": "sphere",
             "center": list(light.position),
             "radius": light.radius,
             "emitter": {"type": "area", "radiance": {"type": "rgb", "value": light.radiance}},
-        },
-        "cloth": mesh,
-    }
+        }
+    scene["cloth"] = mesh
     if backdrop is not None:
         scene["backdrop"] = {
             "type": "rectangle",

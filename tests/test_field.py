@@ -1,0 +1,83 @@
+"""The capture-realistic field set: draws, weaves, camera footprint, yarn colours and one small render."""
+from __future__ import annotations
+
+import io
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from conftest import non_finite_outputs
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from PIL import Image
+
+from clothscope.imageio import decode_image
+from clothscope.synth.fabrics import TWILL21, TWILL31
+from clothscope.synth.field import (CAPTURES, FIELD_FABRICS, FOOTPRINT_HALF, FieldHeight, draw_field, field_index,
+                                    field_rng, footprint_half_width, save_field, synthesize_field)
+from clothscope.synth.generate import truth_paths
+
+
+def test_draws_are_reproducible_and_independent():
+    first = draw_field("twill", field_rng(3, "twill", 0))
+    assert first == draw_field("twill", field_rng(3, "twill", 0))
+    assert first != draw_field("twill", field_rng(3, "twill", 1))
+    assert first != draw_field("twill", field_rng(4, "twill", 0))
+
+
+def test_index_covers_nine_classes_and_draws_stay_in_their_ranges():
+    index = field_index(3)
+    assert len(index) == 27 and {f for f, _, _ in index} == set(FIELD_FABRICS) >= {"twill", "linen", "satin"}
+    draws = [draw_field(fabric, field_rng(0, fabric, k)) for fabric, k, _ in field_index(12)]
+    assert {d.capture for d in draws} == set(CAPTURES)
+    for d in draws:
+        assert 1024 <= d.resolution <= 2048 and 60 <= d.jpeg_quality <= 95
+        if FIELD_FABRICS[d.fabric].periodic:
+            assert 3.0 <= d.period_px <= 60.0 and 12 <= d.resolution / d.period_px <= 341
+        if d.capture.startswith("phone"):
+            assert 60 <= d.fov_deg <= 75
+    assert {d.weave_variant for d in draws if d.fabric == "twill"} == {"twill21", "twill31"}
+
+
+@pytest.mark.parametrize("pattern,floats", [(TWILL21, 2), (TWILL31, 3)])
+def test_twills_float_the_warp_and_step_one_thread_per_row(pattern, floats):
+    assert (pattern.sum(axis=1) == floats).all()
+    for row in range(1, pattern.shape[0]):
+        assert np.array_equal(pattern[row], np.roll(pattern[row - 1], 1))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(8, 75), st.floats(0, 20), st.floats(0, 360))
+def test_the_view_stays_on_the_cloth(fov, tilt, axis):
+    distance = FOOTPRINT_HALF / footprint_half_width(fov, tilt, axis)
+    assert distance > 0
+    assert footprint_half_width(fov, tilt, axis) * distance == pytest.approx(FOOTPRINT_HALF)
+
+
+def test_denim_has_indigo_warp_on_top_and_ecru_weft_below():
+    rng = field_rng(0, "twill", 0)
+    draw = replace(draw_field("twill", rng), weave_variant="twill31", colour_scheme="two_colour", dyes=("indigo", "ecru"), hairiness=0.0)
+    field = FieldHeight(FIELD_FABRICS["twill"], draw, 0.05, rng, 512)
+    x, y = np.meshgrid(np.linspace(-0.5, 0.5, 200), np.linspace(-0.5, 0.5, 200))
+    colour = field.colour(x, y)
+    _, _, warp_on_top = field.layers(x, y)
+    assert np.allclose(colour[warp_on_top], field.dyes[0]) and np.allclose(colour[~warp_on_top], field.dyes[1])
+    assert 0.65 < warp_on_top.mean() < 0.85  # a 3/1 warp-faced twill shows mostly warp
+
+
+def test_small_render_decodes_with_consistent_truth(tmp_path):
+    photo = synthesize_field("linen", 0, 11, spp=2, max_mesh_resolution=512, threads=1, scale=0.125)
+    path = tmp_path / "linen" / "linen_00.jpg"
+    save_field(photo, path)
+    image = decode_image(path).rgb
+    side = photo.truth["image_resolution"]
+    assert image.shape[:2] == (side, side) and side == round(photo.truth["draw"]["resolution"])
+    assert Image.open(io.BytesIO(photo.jpeg)).format == "JPEG"
+    truth = json.loads(truth_paths(path)["json"].read_text())
+    assert truth["fabric_class"] == "linen" and truth["draw"]["slub"] > 0
+    assert truth["thread_period_px"] == pytest.approx(truth["thread_period_world"] * side / truth["view_width_world"])
+    normal = np.asarray(Image.open(truth_paths(path)["normal"]))
+    assert normal.shape[:2] == (side, side)
+    assert np.isfinite(image).all() and 0.02 < image.mean() < 0.9
+    assert non_finite_outputs(tmp_path) == []
