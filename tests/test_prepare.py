@@ -195,6 +195,17 @@ def test_native_period_is_measured_at_native_resolution(side, period):
     assert native_period(rgb, 1024, LATTICE) == pytest.approx(period, rel=0.05)
 
 
+def test_yarn_dyed_stripes_do_not_read_as_the_thread_period():
+    from clothscope.imageio import srgb_to_linear
+    from clothscope.prepare import native_period
+
+    grey = srgb_to_linear(weave_photo(1024, 12.0) / 255.0)[..., :1]
+    warp_band = (np.arange(1024) // 96) % 2 == 1  # stripes of 8 threads, red and ecru
+    rgb = grey * np.where(warp_band[None, :, None], [0.62, 0.58, 0.48], [0.55, 0.05, 0.05]) / 0.6
+    assert native_period(rgb, 1024, LATTICE, "shading") == pytest.approx(12.0, rel=0.05)
+    assert native_period(rgb, 1024, LATTICE, "luminance") != pytest.approx(12.0, rel=0.05)
+
+
 def test_thread_scale_crops_fine_threads_into_the_band_and_records_it(tmp_path):
     Image.fromarray(weave_photo(1024, 20.0)).save(tmp_path / "fine.png")
     settings = PrepareSettings(working_resolution=256, scale="threads")

@@ -6,7 +6,8 @@ image is not an error of the run: :func:`prepare_image` records a rejection
 with a one-line reason instead.
 
 Scale from the threads (``prepare.scale: threads``): the thread period is
-measured on the photo at its native resolution (:func:`native_period`). When
+measured on the photo at its native resolution (:func:`native_period`), by
+default on its shading with the yarn colours divided out. When
 downscaling the whole frame would put it below ``period_band[0]`` working
 pixels, only a centred square is kept, sized so that the period lands at the
 band's geometric centre (never upsampling). The status record says what was
@@ -27,6 +28,7 @@ from PIL import Image
 from .atomic import atomic_dir, write_json
 from .fit.light import luminance
 from .imageio import ImageRejected, decode_image, linear_to_srgb, write_exr, write_png
+from .shading import shading
 from .structure import StructureSettings, analysis_field, find_lattice, spectrum
 
 STATUS_FILE = "status.json"
@@ -47,12 +49,15 @@ class PrepareSettings:
     scale: str = "frame"  # "threads": crop so the thread period lands in period_band (needs a lattice test)
     period_band: tuple[float, float] = (8.0, 16.0)  # wanted thread period, working pixels
     period_window: int = 1024  # side of the native-resolution centre square the period is measured on
+    period_field: str = "shading"  # what the period is measured on: "shading" (yarn colours divided out) or "luminance"
 
     def __post_init__(self) -> None:
         if self.working_resolution < 16:
             raise ValueError(f"working_resolution must be >= 16, got {self.working_resolution}")
         if not 0.0 < self.clip_threshold <= 1.0:
             raise ValueError(f"clip_threshold must be in (0, 1], got {self.clip_threshold}")
+        if self.period_field not in ("shading", "luminance"):
+            raise ValueError(f"period_field must be 'shading' or 'luminance', got {self.period_field!r}")
         if self.scale not in ("frame", "threads"):
             raise ValueError(f"scale must be 'frame' or 'threads', got {self.scale!r}")
         low, high = self.period_band
@@ -61,14 +66,17 @@ class PrepareSettings:
         object.__setattr__(self, "period_band", (float(low), float(high)))
 
 
-def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings) -> float | None:
+def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings, field: str = "shading") -> float | None:
     """Thread period (native pixels) of the photo's centred ``window`` square, or None when no lattice stands out.
 
     The period is the fundamental of :func:`clothscope.structure.find_lattice`
-    (the descriptor's peak test) on the luminance at native resolution.
+    (the descriptor's peak test) at native resolution, on the luminance or on
+    the shading with the yarn colours divided out (:func:`clothscope.shading.shading`),
+    whose strongest pattern is the threads' rather than a colour repeat.
     """
     square = centred(rgb, window)[..., :3]
-    found = find_lattice(spectrum(analysis_field(luminance(square), 0.0)), lattice)
+    values = shading(square) if field == "shading" else luminance(square)
+    found = find_lattice(spectrum(analysis_field(values, 0.0)), lattice)
     return float(square.shape[0] / found.f0) if found.found and found.f0 > 0 else None
 
 
@@ -104,7 +112,7 @@ def working_crop(rgb: np.ndarray, settings: PrepareSettings, lattice: StructureS
     side = min(rgb.shape[:2])
     if settings.scale == "frame":
         return side, {"method": "frame", "crop_px": side, "native_px_per_working_px": side / settings.working_resolution}
-    return thread_crop(side, native_period(rgb, settings.period_window, lattice), settings)
+    return thread_crop(side, native_period(rgb, settings.period_window, lattice, settings.period_field), settings)
 
 
 def centre_square(array: np.ndarray) -> np.ndarray:

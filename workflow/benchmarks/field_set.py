@@ -6,8 +6,9 @@
 
 Reads each image's truth record (the generator's draws and render seconds) and, where the
 workflow has run on the set, the period ``prepare`` measured at native resolution
-(``prepared/<id>/status.json``, ``scale.native_period_px``) against the true period (knits:
-wale or course, whichever is closer). Writes ``results/bench/field_set.{csv,md}``. Nothing
+(``prepared/<id>/status.json``, ``scale.native_period_px``) against the true period as seen
+(the nominal period times :func:`clothscope.evaluate.seen_scale`, the mean magnification the
+folds give; knits: wale or course, whichever is closer). Writes ``results/bench/field_set.{csv,md}``. Nothing
 is chosen here; the classification figures of the set are in the run's feature-set report.
 """
 from __future__ import annotations
@@ -19,6 +20,7 @@ from pathlib import Path
 import pandas as pd
 from harness import ROOT, publish
 
+from clothscope.evaluate import seen_scale
 from clothscope.synth.generate import truth_paths
 
 TOLERANCE = 0.05
@@ -31,7 +33,8 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
     for image_id, path in zip(sheet["image_id"], sheet["path"]):
         truth = json.loads(truth_paths(ROOT / path)["json"].read_text(encoding="utf-8"))
         draw = truth["draw"]
-        periods = [p for p in (truth["thread_period_px"], truth["course_period_px"]) if p]
+        seen = seen_scale(truth)  # folds bring the cloth nearer or farther than the nominal plane
+        periods = [p * seen for p in (truth["thread_period_px"], truth["course_period_px"]) if p]
         status = run / "prepared" / image_id / "status.json"
         measured = json.loads(status.read_text())["scale"].get("native_period_px") if status.is_file() else None
         error = min(abs(measured / p - 1) for p in periods) if measured and periods else None
@@ -41,7 +44,8 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
                      "hairiness": draw["hairiness"], "slub": draw["slub"], "defocus_px": draw["defocus_px"],
                      "jpeg_quality": draw["jpeg_quality"], "render_s": truth["provenance"]["render_seconds"],
                      "prepared": status.is_file(), "periodic": truth["periodic"],
-                     "native_period_px": measured, "period_error": error})
+                     "seen_period_px": periods[0] if periods else None, "native_period_px": measured,
+                     "period_error": error})
     return pd.DataFrame(rows)
 
 

@@ -10,9 +10,9 @@ like, with the same kind of ground truth:
 - capture: a phone camera (60-75 degree field of view, close up) under window
   light, its flash or a lamp, or a macro lens with a ring or coaxial light;
   native images of 1024-2048 px with thread periods of 3-60 px;
-- imaging: defocus, vignetting, white-balance shift, auto exposure to a
-  mean grey (some frames over-exposed until highlights clip), sensor noise
-  and JPEG at quality 60-95.
+- imaging: defocus, vignetting, white-balance shift, auto exposure (the
+  mean of each pixel's brightest channel set to a mid grey; some frames
+  over-exposed, where highlights clip), sensor noise and JPEG at quality 60-95.
 
 Everything is a deterministic function of ``(seed, class, image number)``.
 The truth maps cover the cloth square seen at the image centre, at the
@@ -94,7 +94,7 @@ class FieldDraw:
     defocus_px: float
     vignetting: float
     white_balance: tuple[float, float, float]
-    exposure: float  # mean linear luminance the auto exposure aims at
+    exposure: float  # mean of the brightest channel (linear) the auto exposure aims at
     noise_gain: float
     noise_floor: float
     jpeg_quality: int
@@ -144,7 +144,7 @@ def draw_field(fabric: str, rng: np.random.Generator) -> FieldDraw:
         period_px=period, rotation_deg=float(u(0, 180)), offset=(float(u(0, 8)), float(u(0, 8))), folds=folds,
         colour_scheme=scheme, dyes=dyes, stripe_widths=widths,
         slub=float(u(0.15, 0.35)) if fabric == "linen" else 0.0,
-        hairiness=float(u(0.0, 0.35)), roughness=float(u(*spec.roughness)), specular=float(u(*spec.specular)),
+        hairiness=float(u(0.0, 0.2)), roughness=float(u(*spec.roughness)), specular=float(u(*spec.specular)),
         backdrop=tuple(float(v) for v in np.full(3, u(0.1, 0.6))) if spec.open_weave else None,
         light_polar_deg=float(u(15, 60)), light_azimuth_deg=float(u(0, 360)),
         ring_radius=float(u(0.15, 0.4)), ambient=float(u(0.02, 0.15)),
@@ -190,7 +190,7 @@ class FieldHeight(HeightField):
         n = mesh_resolution
         spacing = 2 * CLOTH_HALF / (n - 1)
         self.pile = pile_height((n, n), spec, rng, 0.5 * period_world / spacing) if spec.structure == "pile" else None
-        hair = ndimage.gaussian_filter(rng.standard_normal((n, n)), sigma=max(0.6, 0.08 * period_world / spacing), mode="wrap")
+        hair = ndimage.gaussian_filter(rng.standard_normal((n, n)), sigma=max(0.6, 0.05 * period_world / spacing), mode="wrap")
         self.hair = hair / (hair.std() + 1e-12)
         fibres = ndimage.gaussian_filter(rng.standard_normal((n, n)), sigma=max(0.6, 0.1 * period_world / spacing), mode="wrap")
         self.melange = fibres > np.quantile(fibres, 0.6)
@@ -290,8 +290,7 @@ def develop(linear: np.ndarray, draw: FieldDraw, rng: np.random.Generator) -> np
     n = image.shape[0]
     r2 = np.sum(np.square(np.mgrid[0:n, 0:n] - (n - 1) / 2), axis=0) / (n / 2) ** 2 / 2
     image = image * (1.0 - draw.vignetting * r2)[..., None] * np.array(draw.white_balance)
-    luminance = image @ np.array([0.2126, 0.7152, 0.0722])
-    image = image * draw.exposure / max(float(np.mean(luminance)), 1e-6)
+    image = image * draw.exposure / max(float(np.mean(image.max(axis=-1))), 1e-6)
     sigma = np.sqrt(draw.noise_gain * np.clip(image, 0, None) + draw.noise_floor**2)
     image = np.clip(image + sigma * rng.standard_normal(image.shape), 0.0, 1.0)
     return linear_to_srgb(image)
