@@ -13,7 +13,7 @@ from clothscope.physics import PhysicsEntry, arcsim_material_json, load_physics_
 ROOT = Path(__file__).resolve().parents[1]
 PHYSICS_YAML = ROOT / "config" / "physics.yaml"
 ARCSIM_MATERIALS = ROOT.parent / "shared" / "reference" / "arcsim_materials"
-ALL_CLASSES = ["broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet"]
+ALL_CLASSES = ["broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet", "twill", "linen"]
 
 
 def entry(name: str, density: float, s: float, b: float) -> PhysicsEntry:
@@ -33,7 +33,7 @@ def entry(name: str, density: float, s: float, b: float) -> PhysicsEntry:
 def test_committed_table_loads_and_leaves_some_classes_without_entry():
     table = load_physics_table(PHYSICS_YAML)
     assert set(table) <= set(ALL_CLASSES)
-    assert {"knit_jersey", "canvas"} <= set(table)
+    assert {"knit_jersey", "canvas", "twill"} <= set(table)
     assert "velvet" not in table and len(table) < len(ALL_CLASSES)
     for name, e in table.items():
         assert e.fabric_class == name and e.citation.startswith("Huamin Wang") and e.rationale
