@@ -3,10 +3,19 @@
 # with the pinned packages of requirements.lock, this package installed editable,
 # and a system libLLVM that drjit's CPU backend can use (>= 16; Debian's libllvm19).
 # Re-running it is cheap: it only reinstalls when requirements.lock or pyproject.toml change.
+# Opt-in: `bash bootstrap.sh --slurm` (or CLOTHSCOPE_SLURM=1) also installs the SLURM executor
+# pinned in requirements-slurm.lock (for workflow/profiles/slurm).
 set -euo pipefail
 cd "$(dirname "$0")"
 
 die() { echo "bootstrap: $*" >&2; exit 1; }
+SLURM=${CLOTHSCOPE_SLURM:-0}
+for arg in "$@"; do
+  case $arg in
+    --slurm) SLURM=1 ;;
+    *) die "unknown option '$arg' (the only option is --slurm)" ;;
+  esac
+done
 as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; elif command -v sudo >/dev/null && sudo -n true 2>/dev/null; then sudo "$@"; else return 1; fi; }
 apt_install() {
   command -v apt-get >/dev/null || return 1
@@ -42,5 +51,14 @@ if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   .venv/bin/python -m pip install -q -r requirements.lock
   .venv/bin/python -m pip install -q --no-deps -e .
   echo "$want" > "$stamp"
+fi
+if [ "$SLURM" = 1 ]; then
+  slurm_stamp=.venv/.clothscope-slurm-installed
+  slurm_want=$(cat requirements-slurm.lock requirements.lock | sha256sum | cut -d' ' -f1)
+  if [ "$(cat "$slurm_stamp" 2>/dev/null)" != "$slurm_want" ]; then
+    echo "bootstrap: installing the pinned SLURM executor plugin into .venv"
+    .venv/bin/python -m pip install -q -r requirements-slurm.lock -c requirements.lock
+    echo "$slurm_want" > "$slurm_stamp"
+  fi
 fi
 .venv/bin/python -c 'from clothscope.runtime import mitsuba_for; mi = mitsuba_for("auto"); print("bootstrap: ready, Mitsuba", mi.__version__, "variant", mi.variant())'

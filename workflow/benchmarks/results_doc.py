@@ -307,6 +307,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/structure_sweep.py"),
         BenchmarkReport("The capture-realistic field set: generator draws and thread periods", ("bench/field_set.md",),
                         f"{py}/field_set.py"),
+        BenchmarkReport("Thread periods on the field set's design images (seed 20261202)", ("bench/field_set_design.md",),
+                        f"{py}/field_set.py --field results/field_design/field --run results/field_design/run "
+                        "--name field_set_design"),
+        BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
                         f"{py}/class_subsets.py"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),

@@ -26,7 +26,7 @@ rule features:
         "../../environment.yml"
     threads: 1
     resources:
-        mem_mb=1000,
+        mem_mb=1500,
         runtime=5,
     params:
         settings=FEATURE_SETTINGS,
