@@ -303,3 +303,16 @@ def test_decompression_bomb_is_refused_from_the_header(tmp_path):
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak < 20e6, f"{peak / 1e6:.0f} MB allocated before refusing"
+
+
+@pytest.mark.parametrize("mode", ["RGB", "L", "P"])
+def test_8bit_photos_decode_through_the_table_exactly_as_the_transfer_function(tmp_path, mode):
+    from clothscope.imageio import decode_image, srgb_to_linear
+
+    codes = np.random.default_rng(5).integers(0, 256, size=(70, 90, 3), dtype=np.uint8)
+    image = Image.fromarray(codes).convert(mode)
+    image.save(tmp_path / "photo.png")
+    expected = np.asarray(image.convert("RGB"), dtype=np.float32) / 255.0
+    decoded = decode_image(tmp_path / "photo.png", clip_threshold=0.9)
+    assert decoded.rgb.dtype == np.float32 and np.array_equal(decoded.rgb, srgb_to_linear(expected))
+    assert np.array_equal(decoded.clipped, np.any(expected >= 0.9, axis=2))
