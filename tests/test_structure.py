@@ -96,6 +96,13 @@ def test_white_noise_finds_no_lattice(seed, size):
     assert all(np.isfinite(v) for v in features.values())
 
 
+@pytest.mark.parametrize("sigma, size", [(2.0, 256), (2.0, 512), (4.0, 512)])
+def test_smoothed_noise_finds_no_lattice(sigma, size):
+    noise = ndimage.gaussian_filter(np.random.default_rng(7).normal(size=(size, size)), sigma, mode="wrap")
+    _, diag = structure_features(noise, SETTINGS)
+    assert not diag["lattice"]
+
+
 def test_lattice_survives_fibre_noise():
     noisy = weave() + 0.5 * np.random.default_rng(3).normal(size=(256, 256))
     _, diag = structure_features(noisy, SETTINGS)

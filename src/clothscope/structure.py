@@ -13,7 +13,7 @@ the threads form, in terms that are invariant by construction:
 * **fundamental** ``f0`` (:func:`find_lattice`): local maxima of the
   Hann-windowed power spectrum (smoothed 3x3) that stand ``peak_threshold``
   times above the median of their own ring (an isotropic background of any slope, such as fibre noise
-  or a 1/f relief, scores about 1); ``f0`` is the radius of the lowest peak
+  or a 1/f relief, scores about 1) and hold at least :data:`MIN_PEAK_SHARE` of the band's power; ``f0`` is the radius of the lowest peak
   holding at least ``fundamental_fraction`` of the strongest one's power, or,
   without a lattice (a pile), the power-weighted mean radius;
 * **features** (:func:`structure_features`), all in units of ``f0`` or as
@@ -59,6 +59,10 @@ CANONICAL_PERIOD = 8.0
 MIN_RADIUS_BINS = 3.0
 #: Smallest analysis window (pixels per side) the descriptor accepts.
 MIN_FIELD = 32
+#: a lattice peak holds at least this share of the band's power: far below it, where a smoothed (fibre-noise)
+#: spectrum has fallen by ten orders of magnitude, the Hann window's leakage along the axes stands above the
+#: ring median and would read as peaks (workflow/benchmarks/noise_peaks.py)
+MIN_PEAK_SHARE = 1e-7
 #: (neighbours, radius) of the LBP baseline.
 LBP_SCALES = ((8, 1), (16, 2), (24, 3))
 
@@ -161,7 +165,8 @@ def find_lattice(s: Spectrum, settings: StructureSettings) -> Lattice:
     """Ring-relative peaks of one half-plane and the fundamental radius ``f0``."""
     band = (s.radius >= MIN_RADIUS_BINS) & (s.radius <= 0.45 * s.size) & upper_half_plane(s.dy, s.dx)
     local_max = s.smoothed == ndimage.maximum_filter(s.smoothed, 5, mode="wrap")
-    idx = np.flatnonzero(local_max & band & (s.relative > settings.peak_threshold))
+    audible = s.smoothed >= MIN_PEAK_SHARE * float(s.smoothed[band].sum())
+    idx = np.flatnonzero(local_max & band & audible & (s.relative > settings.peak_threshold))
     peaks = idx[np.argsort(-s.smoothed.flat[idx], kind="stable")]
     if len(peaks):
         strongest = s.smoothed.flat[peaks[0]]

@@ -311,6 +311,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/field_set.py --field results/field_design/field --run results/field_design/run "
                         "--name field_set_design"),
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
+        BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
                         f"{py}/class_subsets.py"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
