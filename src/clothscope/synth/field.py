@@ -34,8 +34,8 @@ from scipy import ndimage
 from ..atomic import write_json, write_with
 from ..imageio import linear_to_srgb, write_png
 from .fabrics import FABRICS, PLAIN, TWILL21, TWILL31, FabricSpec, knit_height, pile_height, woven_layers
-from .generate import (CLOTH_HALF, FOLD_GRID, PATTERNS, HeightField, encode_normal, fold_surface,
-                       quantise_height, truth_maps, truth_paths)
+from .generate import (CLOTH_HALF, PATTERNS, HeightField, displaced_grid, encode_normal, fold_map, quantise_height,
+                       truth_maps, truth_paths)
 from .scene import Camera, cloth_bsdf, cloth_mesh, effects_for, render, scene_dict
 
 FIELD_VERSION = 1
@@ -349,22 +349,15 @@ def synthesize_field(fabric: str, number: int, seed: int, spp: int = 16, max_mes
 
     view_width = pixel_world * draw.resolution
     maps = truth_maps(field, view_width, draw.resolution)
-    fold_axis = (np.arange(FOLD_GRID) + 0.5) / FOLD_GRID * view_width - view_width / 2
-    fx, fy = np.meshgrid(fold_axis, fold_axis[::-1])
-    fold = fold_surface(fx, fy, draw.folds)[0]
+    fold = fold_map(draw.folds, view_width)
 
     mi = mitsuba_for(variant, threads)
+    positions, coverage, texcoords = displaced_grid(field, draw.folds, mesh_resolution)
     coords = np.linspace(-CLOTH_HALF, CLOTH_HALF, mesh_resolution)
-    gx, gy = np.meshgrid(coords, coords)
-    z, dzdx, dzdy = fold_surface(gx, gy, draw.folds)
-    fold_normal = np.stack([-dzdx, -dzdy, np.ones_like(z)], axis=-1)
-    fold_normal /= np.linalg.norm(fold_normal, axis=-1, keepdims=True)
-    height, coverage = field(gx, gy)
-    positions = np.stack([gx, gy, z], axis=-1) + height[..., None] * fold_normal
-    colour = field.colour(gx, gy)
+    colour = field.colour(*np.meshgrid(coords, coords))  # the vertices' cloth coordinates, as displaced_grid lays them
     bsdf = cloth_bsdf(mi, spec, VERTEX_COLOUR, draw.roughness, draw.specular)
     keep = coverage if spec.open_weave else np.ones_like(coverage)
-    mesh = cloth_mesh(mi, positions, np.stack(field.thread_coords(gx, gy), axis=-1), keep, bsdf)
+    mesh = cloth_mesh(mi, positions, texcoords, keep, bsdf)
     mesh.add_attribute(VERTEX_COLOUR["name"], 3, mi.Float(colour.reshape(-1).astype(np.float32)))
     camera = Camera(tuple(float(v) for v in origin), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), draw.fov_deg, draw.resolution)
     effects = {**effects_for(spec, spp), "capture": draw.capture, "ambient_light": True}

@@ -162,6 +162,13 @@ def truth_maps(field: HeightField, view_width: float, resolution: int) -> dict[s
     return {"height": height, "normal": normal, "coverage": coverage}
 
 
+def fold_map(folds: list[dict[str, float]], view_width: float) -> np.ndarray:
+    """Fold displacement on the :data:`FOLD_GRID` square grid over [-W/2, W/2]^2, row 0 at +y."""
+    axis = (np.arange(FOLD_GRID) + 0.5) / FOLD_GRID * view_width - view_width / 2
+    fx, fy = np.meshgrid(axis, axis[::-1])
+    return fold_surface(fx, fy, folds)[0]
+
+
 def displaced_grid(field: HeightField, folds: list[dict[str, float]], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(n, n, 3) cloth vertices: folds plus thread relief along the fold normal; coverage; texcoords."""
     coords = np.linspace(-CLOTH_HALF, CLOTH_HALF, n)
@@ -230,9 +237,7 @@ def synthesize(fabric: str, dye_index: int, seed: int, resolution: int = 256, sp
     draw = draw_parameters(spec, dye, rng)
     field = HeightField(spec, draw, rng, mesh_resolution)
     maps = truth_maps(field, draw.view_width, resolution)
-    fold_axis = (np.arange(FOLD_GRID) + 0.5) / FOLD_GRID * draw.view_width - draw.view_width / 2
-    fx, fy = np.meshgrid(fold_axis, fold_axis[::-1])
-    fold = fold_surface(fx, fy, draw.folds)[0]
+    fold = fold_map(draw.folds, draw.view_width)
 
     mi = mitsuba_for(variant, threads)
     positions, coverage, texcoords = displaced_grid(field, draw.folds, mesh_resolution)
