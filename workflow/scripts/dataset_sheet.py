@@ -16,7 +16,9 @@ def colour_of(path: Path) -> str:
     if "draw" not in truth:
         return truth["dye"]
     scheme, dyes = truth["draw"]["colour_scheme"], truth["draw"]["dyes"]
-    return dyes[0] if scheme == "solid" else f"{scheme} {'+'.join(dyes)}"
+    if scheme in ("solid", "melange"):  # melange mixes two shades of the first dye
+        return dyes[0] if scheme == "solid" else f"melange {dyes[0]}"
+    return f"{scheme} {'+'.join(dyes)}"
 
 
 with job_log(snakemake.log[0], snakemake.rule) as log:

@@ -80,7 +80,7 @@ class FieldDraw:
     offset: tuple[float, float]
     folds: list[dict[str, float]]
     colour_scheme: str
-    dyes: tuple[str, str]
+    dyes: tuple[str, str]  # melange uses two shades of the first (the second name is drawn but unused)
     stripe_widths: tuple[int, int]
     slub: float
     hairiness: float
