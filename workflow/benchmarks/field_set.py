@@ -9,7 +9,8 @@ workflow has run on the set, the period ``prepare`` measured at native resolutio
 (``prepared/<id>/status.json``, ``scale.native_period_px``) against the true period as seen
 (the nominal period times :func:`clothscope.evaluate.seen_scale`, the mean magnification the
 folds give; knits: wale or course, whichever is closer). The period is also measured here on the luminance and on the shading with the yarn
-colours divided out (``prepare.period_field``). Writes ``results/bench/<name>.{csv,md}``.
+colours divided out (``prepare.period_field``). Writes ``results/bench/<name>.{csv,md}`` and
+``<name>.jpg``, the centred 512 px of every image, one row per class.
 The design images of ``period_field`` are one per class from seed 20261202:
 ``.venv/bin/snakemake --cores 2 field_set --config results=results/field_design
 synthesize="{field: {seed: 20261202, images_per_class: 1}}"``, summarised with
@@ -25,7 +26,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from harness import ROOT, publish, validated_config
+from PIL import Image
 
+from clothscope.atomic import write_with
 from clothscope.evaluate import seen_scale
 from clothscope.imageio import decode_image
 from clothscope.prepare import native_period
@@ -104,6 +107,21 @@ def period_summary(table: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
+def contact_sheet(field: Path, target: Path, tile: int = 256) -> None:
+    """A JPEG grid of the centred 512 px of every image, one row per class."""
+    rows = [sorted(folder.glob("*.jpg")) for folder in sorted(p for p in field.iterdir() if p.is_dir())]
+    rows = [row for row in rows if row]
+    sheet = Image.new("RGB", (tile * max(map(len, rows)), tile * len(rows)), "white")
+    for r, row in enumerate(rows):
+        for c, path in enumerate(row):
+            with Image.open(path) as photo:
+                side = min(photo.size)
+                half = min(256, side // 2)
+                box = (photo.width // 2 - half, photo.height // 2 - half, photo.width // 2 + half, photo.height // 2 + half)
+                sheet.paste(photo.convert("RGB").crop(box).resize((tile, tile), Image.Resampling.LANCZOS), (c * tile, r * tile))
+    write_with(target, lambda tmp: sheet.save(tmp, "JPEG", quality=85))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--field", type=Path, default=ROOT / "results" / "field")
@@ -118,6 +136,7 @@ def main() -> None:
         f"in all (median {table['render_s'].median():.0f} s per image, 2 threads).", "",
         summary.to_markdown(index=False), "", period_summary(table), ""])
     publish(args.out, args.name, table, text, float_format="%.4g")
+    contact_sheet(args.field, args.out / f"{args.name}.jpg")
 
 
 if __name__ == "__main__":
