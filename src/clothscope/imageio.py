@@ -189,8 +189,7 @@ def _decode_codes(codes: np.ndarray, clip_threshold: float) -> tuple[np.ndarray,
     """Linear RGB (float32) and clipped mask of (H, W, 3) 8-bit sRGB codes, through 256-entry tables.
 
     Same values as :func:`srgb_to_linear` on ``codes / 255``, with 12 bytes per
-    pixel of output and no float temporaries (a 100-megapixel photo fits in
-    about 1.5 GB).
+    pixel of output and no float temporaries.
     """
     encoded = np.arange(256, dtype=np.float32) / 255.0
     clipped = np.any((encoded >= clip_threshold)[codes], axis=2)
