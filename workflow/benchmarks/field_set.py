@@ -12,9 +12,9 @@ folds give; knits: wale or course, whichever is closer). The period is also meas
 colours divided out (``prepare.period_field``). Writes ``results/bench/<name>.{csv,md}`` and
 ``<name>.jpg``, the centred 512 px of every image, one row per class.
 The design images of ``period_field`` are one per class from seed 20261202:
-``.venv/bin/snakemake --cores 2 field_set --config results=results/field_design
-synthesize="{field: {seed: 20261202, images_per_class: 1}}"``, summarised with
-``--field results/field_design/field --run results/field_design/run --name field_set_design``. Nothing
+``.venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml
+config/overlays/field_design.yaml``, summarised with ``--field results/field_design/field
+--run results/field_design/run --name field_set_design``. Nothing
 is chosen here; the classification figures of the set are in the run's feature-set report.
 """
 from __future__ import annotations
