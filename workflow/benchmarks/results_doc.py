@@ -76,7 +76,8 @@ def workflow_runs(results: Path) -> list[Run]:
                f"--config samples={r}/holdout/samples.tsv results={r}/holdout/run")
     field = (f".venv/bin/snakemake --cores 2 field_set{own_folder} && .venv/bin/snakemake --cores 2 "
              f"--config samples={r}/field/samples.tsv results={r}/field/run")
-    albedo = f".venv/bin/snakemake --cores 2 --config results={r}/exp_albedo fit='{{normals: {{albedo_weight: 0.05}}}}'"
+    albedo = (".venv/bin/snakemake --cores 2 --configfile config/config.yaml config/overlays/colour_texture.yaml "
+              f"--config results={r}/exp_albedo")
     default_sheet = ROOT / "config" / "samples.tsv"
     return [
         Run("design", results, default_sheet, design),
