@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothscope.shading import LUMA, dye_groups, shading
+from clothscope.fit.light import luminance
+from clothscope.shading import dye_groups, shading
 
 
 def threads_and_stripes(period: float = 9.0, stripe: int = 40, size: int = 256) -> tuple[np.ndarray, np.ndarray]:
@@ -21,7 +22,7 @@ def test_stripes_are_divided_out_and_the_relief_stays():
     assert len(np.unique(dye_groups(rgb))) == 2
     found = shading(rgb)
     assert np.corrcoef(found.ravel(), relief.ravel())[0, 1] > 0.99
-    assert np.corrcoef((rgb @ LUMA).ravel(), relief.ravel())[0, 1] < 0.5  # the luminance is mostly the stripes
+    assert np.corrcoef(luminance(rgb).ravel(), relief.ravel())[0, 1] < 0.5  # the luminance is mostly the stripes
 
 
 @pytest.mark.parametrize("colour", [(0.55, 0.05, 0.05), (0.3, 0.3, 0.3), (0.0, 0.0, 0.0)])
@@ -32,7 +33,7 @@ def test_one_colour_keeps_its_luminance_up_to_a_constant(colour):
     found = shading(rgb)
     assert np.all(np.isfinite(found))
     if max(colour) > 0:
-        assert np.allclose(found / found.mean(), (rgb @ LUMA) / (rgb @ LUMA).mean())
+        assert np.allclose(found / found.mean(), luminance(rgb) / luminance(rgb).mean())
 
 
 def test_noisy_one_colour_photo_is_one_group():

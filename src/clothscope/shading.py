@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.cluster.vq import ClusterError, kmeans2
 
+from .fit.light import luminance
+
 #: most dye groups looked for
 MAX_COLOURS = 3
 #: smallest chromaticity distance (r, g of r + g + b = 1) between two dye groups
@@ -23,7 +25,6 @@ MIN_SEPARATION = 0.04
 SEPARATION_OVER_SPREAD = 4.0
 #: pixels sampled for the clustering
 SAMPLE = 20000
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 def chromaticity(rgb: np.ndarray) -> np.ndarray:
@@ -57,7 +58,7 @@ def dye_groups(rgb: np.ndarray, seed: int = 0) -> np.ndarray:
 
 def shading(rgb: np.ndarray) -> np.ndarray:
     """(H, W) luminance over the mean luminance of the pixel's dye group (linear RGB in)."""
-    luminance = rgb @ LUMA
+    grey = luminance(rgb)
     groups = dye_groups(rgb)
-    means = np.array([luminance[groups == g].mean() if np.any(groups == g) else 1.0 for g in range(groups.max() + 1)])
-    return luminance / np.maximum(means[groups], 1e-6)
+    means = np.array([grey[groups == g].mean() if np.any(groups == g) else 1.0 for g in range(groups.max() + 1)])
+    return grey / np.maximum(means[groups], 1e-6)

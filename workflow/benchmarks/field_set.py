@@ -51,8 +51,10 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
         status = run / "prepared" / image_id / "status.json"
         measured = json.loads(status.read_text())["scale"].get("native_period_px") if status.is_file() else None
         error = period_error(measured, periods) if periods else None
-        by_field = {name: period_error(native_period(decode_image(path).rgb, 1024, lattice, name), periods)
-                    for name in ("luminance", "shading")} if periods else {}
+        by_field = {}
+        if periods:
+            rgb = decode_image(path).rgb
+            by_field = {name: period_error(native_period(rgb, 1024, lattice, name), periods) for name in ("luminance", "shading")}
         rows.append({"image_id": image_id, "fabric_class": truth["fabric_class"], "weave": draw["weave_variant"],
                      "capture": draw["capture"], "resolution": draw["resolution"], "fov_deg": draw["fov_deg"],
                      "tilt_deg": draw["tilt_deg"], "period_px": truth["thread_period_px"], "colour": draw["colour_scheme"],
