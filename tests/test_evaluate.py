@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from clothscope.evaluate import effects_comparison, fold_normal_error, period_error, seen_scale
+from clothscope.evaluate import effects_comparison, fold_normal_error, in_working_frame, period_error, seen_scale
 from clothscope.fit.model import FitCamera, plane_grid
 
 
@@ -48,6 +48,20 @@ def test_seen_scale_follows_the_depth_the_cloth_is_seen_at():
     assert seen_scale({"camera": truth_camera(), "folds": [wide]}) == pytest.approx(3.0 / 2.85, rel=2e-3)
     lowered = {"camera": truth_camera(), "folds": [wide | {"amplitude": -0.15}]}
     assert seen_scale(lowered) == pytest.approx(3.0 / 3.15, rel=2e-3)
+
+
+def test_the_truth_is_put_in_the_frame_prepare_cropped_and_scaled():
+    """A 1024 px photo cropped to its centre 512 px and downscaled to 256: half the view, threads at a quarter."""
+    truth = {"camera": truth_camera(40.0), "folds": [], "thread_period_px": 20.0, "course_period_px": None}
+    seen = in_working_frame(truth, {"crop_px": 512, "native_px_per_working_px": 2.0}, 1024)
+    assert np.tan(np.deg2rad(seen["camera"]["fov_deg"]) / 2) == pytest.approx(0.5 * np.tan(np.deg2rad(20.0)))
+    assert seen["thread_period_px"] == pytest.approx(10.0) and seen["course_period_px"] is None
+    assert truth["camera"]["fov_deg"] == 40.0 and truth["thread_period_px"] == 20.0  # the record itself is unchanged
+    # a fit of the cropped view's flat centre: no fold error in the cropped frame
+    camera = FitCamera(seen["camera"]["fov_deg"])
+    assert fold_normal_error(seen, plane_grid(camera, 64, 0.06), camera.fov_deg, camera.distance) == pytest.approx(0.0, abs=1e-3)
+    assert in_working_frame(truth, {"crop_px": 256, "native_px_per_working_px": 1.0}, 256) is truth
+    assert in_working_frame(truth, None, 1024) is truth
 
 
 def ablation_rows(mode: str, seconds: float, roughness: float) -> pd.DataFrame:

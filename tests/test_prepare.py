@@ -176,12 +176,12 @@ LATTICE = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fractio
 
 
 def weave_photo(side: int, period: float, angle_deg: float = 20.0, seed: int = 0) -> np.ndarray:
-    """8-bit RGB of a plain-weave-like checker of threads ``period`` px apart, turned by ``angle_deg``, with noise."""
+    """8-bit RGB of a plain-weave-like relief (yarns ``period`` px apart, crossings between), turned by ``angle_deg``, with noise."""
     rng = np.random.default_rng(seed)
     rows, cols = np.mgrid[0:side, 0:side].astype(np.float64)
     a = np.deg2rad(angle_deg)
     u, v = (cols * np.cos(a) + rows * np.sin(a)) / period, (-cols * np.sin(a) + rows * np.cos(a)) / period
-    relief = np.cos(2 * np.pi * u) * np.cos(2 * np.pi * v) + 0.3 * np.cos(2 * np.pi * u)
+    relief = 0.6 * (np.cos(2 * np.pi * u) + 0.8 * np.cos(2 * np.pi * v)) + 0.5 * np.cos(2 * np.pi * u) * np.cos(2 * np.pi * v)
     grey = 0.45 + 0.2 * relief + 0.03 * rng.standard_normal(relief.shape)
     return np.repeat(np.clip(grey * 255, 0, 255).astype(np.uint8)[..., None], 3, axis=-1)
 

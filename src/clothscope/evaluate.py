@@ -162,13 +162,41 @@ def benchmark_seconds(path: str | os.PathLike[str]) -> tuple[float, float]:
     return float(row["s"]), float(0.0 if not np.isfinite(rss) else rss)
 
 
+def in_working_frame(truth: dict[str, Any], scale: dict[str, Any] | None, source_px: int) -> dict[str, Any]:
+    """The truth record as the fit saw it: ``prepare``'s centred crop and downscaling undone.
+
+    ``scale`` is the prepared status's ``scale`` record (``crop_px``,
+    ``native_px_per_working_px``) of a square-cropped photo whose short side is
+    ``source_px``. A centred crop narrows the camera's field of view, and the
+    thread periods, given in native pixels, shrink by the downscaling factor.
+    Without a record (or an uncropped, unscaled photo) the truth is returned as it is.
+    """
+    if not scale:
+        return truth
+    fraction = float(scale.get("crop_px", source_px)) / float(source_px)
+    factor = float(scale.get("native_px_per_working_px", 1.0))
+    if fraction == 1.0 and factor == 1.0:
+        return truth
+    camera = dict(truth["camera"])
+    camera["fov_deg"] = float(np.degrees(2.0 * np.arctan(fraction * np.tan(np.deg2rad(camera["fov_deg"]) / 2.0))))
+    periods = {key: truth[key] / factor for key in ("thread_period_px", "course_period_px") if truth.get(key)}
+    return truth | {"camera": camera} | periods
+
+
 def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: str | os.PathLike[str],
-                 benchmarks: dict[str, str]) -> dict[str, Any]:
-    """Every error of one image's fit against its ground truth, plus stage times and memory."""
+                 benchmarks: dict[str, str], prepared_status: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+    """Every error of one image's fit against its ground truth, plus stage times and memory.
+
+    ``prepared_status``: the image's prepared ``status.json``; its crop and scale
+    put the truth in the frame the fit saw (:func:`in_working_frame`).
+    """
     from .fit.stage import STATE_FILE, load_state
     from .imageio import read_exr
 
     truth = json.loads(Path(truth_json).read_text(encoding="utf-8"))
+    if prepared_status is not None:
+        status = json.loads(Path(prepared_status).read_text(encoding="utf-8"))
+        truth = in_working_frame(truth, status.get("scale"), min(status.get("source_size") or [0]))
     row: dict[str, Any] = {"image_id": image_id, "fabric_class": truth["fabric_class"]}
     normals_dir = Path(fit_root) / "normals"
     state = json.loads((normals_dir / STATE_FILE).read_text(encoding="utf-8"))
@@ -282,15 +310,16 @@ def effects_comparison(table: Any, column: str, planned: str, full: str) -> str:
 
 
 def write_accuracy_report(images: list[str], fit_dirs: list[str], truth_jsons: list[Any], benchmark_root: str,
-                          table: str, summary: str) -> int:
+                          table: str, summary: str, prepared_statuses: list[str] | None = None) -> int:
     """Evaluate every image and write the CSV table and the Markdown summary atomically."""
     import pandas as pd
 
     from .atomic import write_text
 
+    statuses = prepared_statuses or [None] * len(images)
     rows = [evaluate_fit(image, fit_dir, truth, {s: os.path.join(benchmark_root, f"fit_{s}", f"{image}.tsv")
-                                                 for s in ("geometry", "material", "normals")})
-            for image, fit_dir, truth in zip(images, fit_dirs, truth_jsons)]
+                                                 for s in ("geometry", "material", "normals")}, status)
+            for image, fit_dir, truth, status in zip(images, fit_dirs, truth_jsons, statuses)]
     frame = pd.DataFrame(rows)
     write_text(table, frame.to_csv(index=False, float_format="%.6g"))
     write_text(summary, summarise(frame))

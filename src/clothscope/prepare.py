@@ -18,7 +18,7 @@ from __future__ import annotations
 import json
 import os
 import traceback
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +35,10 @@ STATUS_FILE = "status.json"
 IMAGE_FILE = "image.exr"
 CLIPPED_FILE = "clipped.png"
 PREVIEW_FILE = "preview.png"
+#: the native period is that of the strongest lattice peak (a peak needs this share of the strongest's power). The
+#: descriptor's lowest strong peak can be a colour repeat many threads long, which crops the threads below the
+#: fit's resolution; the strongest is the threads themselves or, at worst, a harmonic that crops them larger.
+PERIOD_PEAK_FRACTION = 1.0
 
 
 @dataclass(frozen=True)
@@ -69,14 +73,15 @@ class PrepareSettings:
 def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings, field: str = "shading") -> float | None:
     """Thread period (native pixels) of the photo's centred ``window`` square, or None when no lattice stands out.
 
-    The period is the fundamental of :func:`clothscope.structure.find_lattice`
-    (the descriptor's peak test) at native resolution, on the luminance or on
-    the shading with the yarn colours divided out (:func:`clothscope.shading.shading`),
-    whose strongest pattern is the threads' rather than a colour repeat.
+    The period is that of the strongest peak of :func:`clothscope.structure.find_lattice`
+    (the descriptor's peak test, :data:`PERIOD_PEAK_FRACTION`) at native resolution, on
+    the luminance or on the shading with the yarn colours divided out
+    (:func:`clothscope.shading.shading`), whose strongest pattern is the threads'
+    rather than a colour repeat.
     """
     square = centred(rgb, window)[..., :3]
     values = shading(square) if field == "shading" else luminance(square)
-    found = find_lattice(spectrum(analysis_field(values, 0.0)), lattice)
+    found = find_lattice(spectrum(analysis_field(values, 0.0)), replace(lattice, fundamental_fraction=PERIOD_PEAK_FRACTION))
     return float(square.shape[0] / found.f0) if found.found and found.f0 > 0 else None
 
 

@@ -9,10 +9,18 @@ the chromaticity, so the pixels are grouped by chromaticity (k-means, at most
 spread apart) and each pixel's luminance is divided by the
 mean luminance of its group. A one-colour photo has one group, and its
 shading is its luminance divided by a constant.
+
+A dye does not read the same everywhere: a navy weft dot between ecru warp
+floats is lightened by defocus and by light bounced off its neighbours, so it
+reads lighter than the navy of a solid stripe. Dividing by one mean per group
+then leaves a step at every colour repeat. The shading is therefore also
+cleared of what the dye layout explains: its least-squares fit on each
+group's map blurred at :data:`LAYOUT_SCALES` is subtracted (the mean kept).
 """
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 from scipy.cluster.vq import ClusterError, kmeans2
 
 from .fit.light import luminance
@@ -25,6 +33,8 @@ MIN_SEPARATION = 0.04
 SEPARATION_OVER_SPREAD = 4.0
 #: pixels sampled for the clustering
 SAMPLE = 20000
+#: blur scales (pixels) of the dye-group maps whose fit is taken out of the shading: from a dot's own blur to a stripe
+LAYOUT_SCALES = (1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 
 
 def chromaticity(rgb: np.ndarray) -> np.ndarray:
@@ -56,9 +66,21 @@ def dye_groups(rgb: np.ndarray, seed: int = 0) -> np.ndarray:
     return labels.reshape(rgb.shape[:2])
 
 
+def without_layout(field: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """``field`` less its least-squares fit on the blurred dye-group maps (its mean kept); unchanged for one group."""
+    maps = [ndimage.gaussian_filter((groups == g).astype(np.float64), sigma, mode="reflect").ravel()
+            for g in range(int(groups.max())) for sigma in LAYOUT_SCALES]
+    if not maps:
+        return field
+    columns = [np.ones(field.size)] + maps  # normal equations: a few columns of a million pixels each
+    gram = np.array([[a @ b for b in columns] for a in columns])
+    coefficients = np.linalg.lstsq(gram, np.array([a @ field.ravel() for a in columns]), rcond=None)[0]
+    return field - sum(c * m for c, m in zip(coefficients[1:], maps)).reshape(field.shape)
+
+
 def shading(rgb: np.ndarray) -> np.ndarray:
-    """(H, W) luminance over the mean luminance of the pixel's dye group (linear RGB in)."""
+    """(H, W) luminance over the mean luminance of the pixel's dye group, less what the dye layout explains (linear RGB in)."""
     grey = luminance(rgb)
     groups = dye_groups(rgb)
     means = np.array([grey[groups == g].mean() if np.any(groups == g) else 1.0 for g in range(groups.max() + 1)])
-    return grey / np.maximum(means[groups], 1e-6)
+    return without_layout(grey / np.maximum(means[groups], 1e-6), groups)

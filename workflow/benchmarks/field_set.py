@@ -36,6 +36,8 @@ from clothscope.structure import StructureSettings
 from clothscope.synth.generate import truth_paths
 
 TOLERANCE = 0.05
+#: a period read this many times too long is a colour or weave repeat: the crop then leaves the threads too fine to fit
+TOO_LONG = 1.8
 
 
 def image_rows(field: Path, run: Path) -> pd.DataFrame:
@@ -62,7 +64,8 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
                      "jpeg_quality": draw["jpeg_quality"], "render_s": truth["provenance"]["render_seconds"],
                      "prepared": status.is_file(), "periodic": truth["periodic"],
                      "seen_period_px": periods[0] if periods else None, "native_period_px": measured,
-                     "period_error": error, **{f"{name}_period_error": e for name, e in by_field.items()}})
+                     "period_error": error, "period_ratio": measured / periods[0] if measured and periods else None,
+                     **{f"{name}_period_error": e for name, e in by_field.items()}})
     return pd.DataFrame(rows)
 
 
@@ -104,8 +107,11 @@ def period_summary(table: pd.DataFrame) -> str:
     if prepared.empty:
         lines.append("- as recorded by the workflow's `prepare`: not measured (the workflow has not run on the set)")
     else:
+        too_long = int((prepared["period_ratio"] >= TOO_LONG).sum())
         lines.append(f"- as recorded by the workflow's `prepare` (`scale.native_period_px`): "
-                     f"{within(prepared['period_error'])}; no lattice found for {prepared['native_period_px'].isna().sum()}")
+                     f"{within(prepared['period_error'])}; no lattice found for {prepared['native_period_px'].isna().sum()}; "
+                     f"read at least {TOO_LONG:g} times too long (a colour or weave repeat, so the crop leaves the threads "
+                     f"too fine to fit) for {too_long}")
     return "\n".join(lines)
 
 

@@ -85,6 +85,9 @@ rule fit_normals:
 rule fit_accuracy:
     input:
         fits=expand(fit_dir("normals"), image=images_with_truth()),
+        prepared=expand(
+            os.path.join(RESULTS, "prepared", "{image}"), image=images_with_truth()
+        ),
     output:
         table=os.path.join(RESULTS, "reports", "fit_accuracy.csv"),
         summary=report(

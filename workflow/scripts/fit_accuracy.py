@@ -14,5 +14,6 @@ with job_log(snakemake.log[0], "fit_accuracy") as log:
         benchmark_root=snakemake.params.benchmarks,
         table=snakemake.output.table,
         summary=snakemake.output.summary,
+        prepared_statuses=[os.path.join(d, "status.json") for d in snakemake.input.prepared],
     )
     log.info("evaluated %d images", rows)
