@@ -103,7 +103,8 @@ def test_shade_texture_takes_the_holes_of_an_open_weave_and_stays_in_range(tmp_p
     from clothscope.fit.normals import SHADE_FILE, SHADE_LATENT0
     from clothscope.structure import StructureSettings, shade_features
 
-    settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, albedo_weight=0.05)
+    settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, albedo_weight=0.05,
+                              colour_model="one_colour")
     state = run_tiny_fit(SYNTHETIC / "cotton_gauze" / "cotton_gauze_ivory.png", tmp_path, normals=settings)
     assert state["status"] == "fitted"
     folder = tmp_path / "fit" / "normals"
@@ -122,6 +123,34 @@ def test_shade_texture_takes_the_holes_of_an_open_weave_and_stays_in_range(tmp_p
     assert all(math.isfinite(v) for v in features.values()) and any(v != 0.0 for v in features.values())
     # without a shade texture the shade columns are zero
     assert set(shade_features(None, StructureSettings(0.1, 10.0, 0.3)).values()) == {0.0}
+
+
+@pytest.mark.slow
+def test_a_striped_flat_cloth_keeps_its_stripes_in_the_colour_and_out_of_the_relief(tmp_path, mi):
+    """colour_model auto: a photo of two dyes gets the dye layout; it re-renders the photo and tilts the flat cloth's normals less."""
+    from clothscope.fit.model import shaded_texture
+
+    camera, material = FitCamera(), Material((0.5, 0.5, 0.5), 0.3, 0.7)
+    fit = FitScene(camera, PointLight(15, 30), plane_grid(camera, 32), 0.06, material)
+    columns = np.arange(64)
+    stripes = np.where((columns // 8) % 2 == 1, np.array([[1.3], [1.2], [0.9]]), np.array([[0.3], [0.4], [1.0]])).T
+    layout = np.broadcast_to(stripes[None, :, :], (64, 64, 3))  # navy and ecru stripes along the columns
+    albedo = shaded_texture(material, np.ones((64, 64)), layout)
+    image = np.array(mi.render(build_scene(mi, fit, 64, {"type": "direct"}, albedo_texture=albedo), spp=32, seed=1))[..., :3]
+    write_png(tmp_path / "striped.png", linear_to_srgb(np.clip(image, 0, 1)))
+    tilt, psnr = {}, {}
+    for model in ("auto", "one_colour"):
+        settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, colour_model=model)
+        state = run_tiny_fit(tmp_path / "striped.png", tmp_path / model, normals=settings)
+        folder = tmp_path / model / "fit" / "normals"
+        assert_all_finite(state, folder)
+        tilt[model] = float(np.degrees(np.arccos(read_exr(folder / "normal.exr")[..., 2])).mean())
+        psnr[model] = state["psnr_db"]
+        assert state["colour_model"]["kind"] == ("dye_layout" if model == "auto" else "one_colour")
+        assert (folder / "albedo.exr").exists() == (model == "auto")
+    assert state["colour_model"] == {"kind": "one_colour", "dye_groups": 1, "shares": [1.0]}
+    assert psnr["auto"] > psnr["one_colour"] + 6.0  # one colour cannot render the stripes
+    assert tilt["auto"] < 0.8 * tilt["one_colour"]  # ... and pushes them into the normals
 
 
 HARD_CASES = {

@@ -20,6 +20,7 @@ import numpy as np
 from ..atomic import atomic_dir, write_json, write_text
 from ..imageio import write_exr, write_png
 from ..runtime import mitsuba_for, runtime_metadata
+from .colour import choose_colour_model
 from .effects import geometry_evidence, plan_stage
 from .geometry import GeometrySettings, fit_geometry
 from .material import MaterialSettings, fit_material
@@ -119,7 +120,10 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
     """``fit_normals`` for one image: normal map, height map, preview and the refined BSDF."""
     def body(tmp: Path) -> dict[str, Any]:
         fit, photo, mi, plan = _continue_fit(material_dir, prepared_dir, "normals", variant, threads, full_effects, log)
-        height, fit.material, loops, shade = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log)
+        colour = choose_colour_model(settings.colour_model, photo.image, settings.texture, fit.margin)
+        log.info("colour model: %s", colour.as_record())
+        height, fit.material, loops, shade = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, settings,
+                                                         log, colour)
         normals = height_to_normals_np(height).astype(np.float32)
         write_exr(tmp / "normal.exr", normals)
         write_exr(tmp / "height.exr", np.repeat(height[..., None], 3, axis=2).astype(np.float32))
@@ -129,11 +133,14 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
         texels_per_pixel = settings.texture / (photo.resolution * (1 + fit.margin))
         record = {"effects": [plan.as_record()], "warnings": [w for loop in loops for w in loop.warnings],
                   "stopped": [loop.stopped for loop in loops], "final_loss": min(loop.best_loss for loop in loops),
-                  "settings": settings.__dict__, "material": fit.material.as_dict(), "texels_per_pixel": texels_per_pixel}
+                  "settings": settings.__dict__, "material": fit.material.as_dict(), "texels_per_pixel": texels_per_pixel,
+                  "colour_model": colour.as_record()}
         write_json(tmp / "material.json", {"material": fit.material.as_dict(), "effects": [plan.as_record()],
-                                           "refined_jointly_with_normal_map": True, "texels_per_pixel": texels_per_pixel})
+                                           "refined_jointly_with_normal_map": True, "texels_per_pixel": texels_per_pixel,
+                                           "colour_model": colour.as_record()})
         curve = [r | {"phase": phase} for phase, loop in zip(("normals", "normals+bsdf"), loops) for r in loop.curve]
-        albedo = None if shade is None else shaded_texture(fit.material, shade)
+        textured = shade is not None or colour.layout is not None
+        albedo = shaded_texture(fit.material, np.ones(normals.shape[:2]) if shade is None else shade, colour.layout) if textured else None
         return _write_common(tmp, mi, fit, photo, curve, record, normals * 0.5 + 0.5, "normal.png", albedo)
 
     return _run_job(out_dir, "normals", log, body)

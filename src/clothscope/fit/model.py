@@ -137,9 +137,10 @@ def flat_normal_texture(size: int) -> np.ndarray:
     return texture
 
 
-def shaded_texture(material: Material, shade: np.ndarray) -> np.ndarray:
-    """(T, T, 3) linear base-colour texture: the material colour times a (T, T) shade."""
-    return (np.asarray(shade, dtype=np.float32)[..., None] * np.asarray(material.base_color, dtype=np.float32)).astype(np.float32)
+def shaded_texture(material: Material, shade: np.ndarray, layout: np.ndarray | None = None) -> np.ndarray:
+    """(T, T, 3) linear base-colour texture: the material colour times a (T, T) shade (and a (T, T, 3) dye layout)."""
+    texture = np.asarray(shade, dtype=np.float32)[..., None] * np.asarray(material.base_color, dtype=np.float32)
+    return (texture if layout is None else texture * np.asarray(layout, dtype=np.float32)).astype(np.float32)
 
 
 def cloth_bsdf_dict(mi: ModuleType, material: Material, normal_texture: np.ndarray,

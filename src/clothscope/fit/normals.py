@@ -23,6 +23,10 @@ colour times a per-texel *shade* ``s`` in (0, 1 / s0) (a logistic latent,
 mean|s - 1|`` lets the shade take only what the relief cannot explain under
 the one light: holes showing a backdrop, occluded crevices, dyed yarns. It
 is written as ``shade.exr`` and the colour texture as ``albedo.exr``.
+
+With the ``dye_layout`` colour model (:mod:`.colour`) the base colour is also
+a texture: the fitted colour times the photo's fixed dye layout (times the
+shade, when there is one), written as ``albedo.exr`` too.
 """
 from __future__ import annotations
 
@@ -34,6 +38,7 @@ from typing import Any
 import numpy as np
 from scipy.special import expit
 
+from .colour import ColourModel
 from .effects import Plan
 from .loop import LoopSettings, optimise
 from .material import apply_material, material_from_latents, material_latents
@@ -57,6 +62,7 @@ class NormalSettings:
     joint_learning_rate: float = 0.02
     min_roughness: float = 0.05
     albedo_weight: float = 0.0  # > 0: fit a shade texture with this L1 prior weight (0: one colour)
+    colour_model: str = "auto"  # auto, one_colour or dye_layout (clothscope.fit.colour)
 
 
 #: File of the fitted shade texture in the stage's output folder (three equal channels).
@@ -99,25 +105,36 @@ def shade_of(mi: ModuleType, latent: Any) -> Any:
     return sigmoid(latent) / float(expit(SHADE_LATENT0))
 
 
-def shaded_albedo(mi: ModuleType, color_latent: Any, shade_latent: Any, size: int) -> Any:
-    """Differentiable (size, size, 3) base-colour texture: the material colour times the shade."""
+def albedo_texture(mi: ModuleType, color_latent: Any, size: int, shade_latent: Any = None,
+                   layout: tuple[Any, Any, Any] | None = None) -> Any:
+    """Differentiable (size, size, 3) base-colour texture: the material colour times the shade and the dye layout."""
     import drjit as dr
 
-    shade = shade_of(mi, shade_latent)
     color = [sigmoid(dr.gather(mi.Float, color_latent, i)) for i in range(3)]
-    return mi.TensorXf(dr.ravel(mi.Color3f(color[0] * shade, color[1] * shade, color[2] * shade)), shape=(size, size, 3))
+    if shade_latent is not None:
+        shade = shade_of(mi, shade_latent)
+        color = [c * shade for c in color]
+    if layout is not None:
+        color = [c * ratio for c, ratio in zip(color, layout)]
+    return mi.TensorXf(dr.ravel(mi.Color3f(*color)), shape=(size, size, 3))  # a shade or a layout makes it per texel
 
 
 def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: NormalSettings,
-                log: logging.Logger) -> tuple[np.ndarray, Material, list[Any], np.ndarray | None]:
-    """Fit the height map (and shade), then with the BSDF jointly; returns height, material, loop results, shade."""
+                log: logging.Logger, colour: ColourModel | None = None) -> tuple[np.ndarray, Material, list[Any], np.ndarray | None]:
+    """Fit the height map (and shade), then with the BSDF jointly; returns height, material, loop results, shade.
+
+    ``colour``: the base colour's model (:mod:`.colour`); its layout texture must be ``settings.texture`` texels wide.
+    """
     import drjit as dr
 
     size = settings.texture
-    textured = settings.albedo_weight > 0
+    shaded = settings.albedo_weight > 0
+    layout_np = None if colour is None else colour.layout
+    textured = shaded or layout_np is not None
+    layout = None if layout_np is None else tuple(mi.Float(layout_np[..., c].ravel()) for c in range(3))
     scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), normal_texture=flat_normal_texture(size),
                         sample_border=plan.projective,
-                        albedo_texture=shaded_texture(fit.material, np.ones((size, size))) if textured else None)
+                        albedo_texture=shaded_texture(fit.material, np.ones((size, size)), layout_np) if textured else None)
     params = mi.traverse(scene)
     neighbours = {k: mi.UInt32(v) for k, v in neighbour_indices(size).items()}
     fixed = material_latents(fit.material, settings.min_roughness)
@@ -128,15 +145,15 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
         latents = {k: opt[k] if k in opt else fixed_arrays[k] for k in fixed}
         apply_material(mi, params, latents, settings.min_roughness, textured=textured)
         if textured:
-            params[BSDF_KEYS["albedo"]] = shaded_albedo(mi, latents["color"], opt["shade"], size)
+            params[BSDF_KEYS["albedo"]] = albedo_texture(mi, latents["color"], size, opt["shade"] if shaded else None, layout)
         params.update()
         loss = image_loss(mi, render(mi, scene, params, settings.spp, it, settings.spp_grad), target)
-        if textured:
+        if shaded:
             loss = loss + settings.albedo_weight * dr.mean(dr.abs(shade_of(mi, opt["shade"]) - 1.0))
         return loss
 
     height0 = {"height": np.zeros(size * size, dtype=np.float32)}
-    if textured:
+    if shaded:
         height0["shade"] = np.full(size * size, SHADE_LATENT0, dtype=np.float32)
     first = optimise(mi, height0, loss_fn, LoopSettings(settings.iterations, settings.learning_rate, settings.patience,
                                                         settings.min_improvement), log, "normals")

@@ -1,0 +1,49 @@
+"""Colour model of the normal-map fit (clothscope.fit.colour): one colour, or the photo's dye layout."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from clothscope.fit.colour import choose_colour_model, layout_texture, texel_groups
+
+
+def two_dye_photo(size: int = 64) -> np.ndarray:
+    """Red and ecru stripes 8 px wide along the columns, with a thread relief."""
+    y, x = np.mgrid[:size, :size].astype(float)
+    relief = 0.75 + 0.2 * np.cos(2 * np.pi * x / 4) * np.cos(2 * np.pi * y / 4)
+    dye = np.where(((x // 8) % 2 == 1)[..., None], [0.62, 0.58, 0.48], [0.55, 0.05, 0.05])
+    return relief[..., None] * dye
+
+
+def test_texels_map_onto_the_view_with_the_overhang_extending_the_edge_groups():
+    groups = np.zeros((4, 4), dtype=int)
+    groups[:, 2:] = 1
+    texels = texel_groups(groups, 8, 0.0)
+    assert np.array_equal(texels, np.repeat(np.repeat(groups, 2, axis=0), 2, axis=1))
+    wide = texel_groups(groups, 10, 0.5)  # the plane is 1.5 views wide: its outer texels take the edge groups
+    assert np.all(wide[:, 0] == 0) and np.all(wide[:, -1] == 1)
+
+
+def test_the_layout_holds_each_dyes_colour_over_the_mean_colour():
+    photo = two_dye_photo()
+    model = choose_colour_model("auto", photo, 64, 0.0)
+    assert model.kind == "dye_layout" and model.shares == pytest.approx((0.5, 0.5))
+    assert model.layout.shape == (64, 64, 3) and np.all(np.isfinite(model.layout))
+    # area-weighted, the ratios average to one: the fitted colour stays the cloth's mean colour
+    assert np.mean(model.layout, axis=(0, 1)) == pytest.approx(np.ones(3), rel=1e-3)
+    red, ecru = model.layout[0, 0], model.layout[0, 8]
+    assert red[0] / red[1] > 5 and ecru[0] / ecru[1] < 1.2
+    assert model.as_record() == {"kind": "dye_layout", "dye_groups": 2, "shares": [0.5, 0.5]}
+    groups = (np.arange(64) // 8 % 2)[None, :].repeat(64, axis=0)
+    assert np.allclose(layout_texture(photo, groups, 64, 0.0)[0], model.layout)
+
+
+def test_one_dye_or_one_colour_asked_gives_one_colour():
+    photo = two_dye_photo()
+    assert choose_colour_model("one_colour", photo, 64, 0.06).kind == "one_colour"
+    grey = np.repeat(photo.mean(axis=-1, keepdims=True), 3, axis=-1)
+    for kind in ("auto", "dye_layout"):
+        model = choose_colour_model(kind, grey, 64, 0.06)
+        assert model.kind == "one_colour" and model.layout is None
+    with pytest.raises(ValueError, match="colour_model"):
+        choose_colour_model("stripes", photo, 64, 0.06)
