@@ -1,0 +1,118 @@
+"""Benchmark: where a fit job's seconds go: process start and imports, set-up and writing, first iteration, iterations.
+
+    .venv/bin/python workflow/benchmarks/job_costs.py [--run results] [--repeats 3]
+
+Reads a finished run: each fit job's wall time (the rule's ``benchmark:`` file) and
+its loss curves (``loss.csv``: seconds since each loop started, per iteration). The
+loops' time is split into the first iteration's excess over a steady one (tracing
+and compiling kernels the cache does not hold) and the steady iterations; what is
+left of the wall time is outside the loops. Of that, the fixed start-up of a job
+process is measured here directly, in fresh interpreters (``--repeats`` times,
+median): the interpreter alone, importing the fit package, and loading Mitsuba's
+LLVM variant. The remainder is the job's own set-up and writing (reading inputs,
+building the scene, the effects plan, the preview render, the output files).
+The run's jobs ran two side by side on two cores, so their figures include that
+sharing; the start-up figures are taken on an otherwise idle machine.
+Writes ``results/bench/job_costs.{csv,md}``.
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+from harness import ROOT, STAGES, publish
+
+#: Python snippets of the start-up steps, each run in a fresh interpreter
+START_UP = {
+    "interpreter": "pass",
+    "import the fit package": "import clothscope.fit.jobs",
+    "import the fit package and load Mitsuba (llvm_ad_rgb, 1 thread)":
+        "import clothscope.fit.jobs\nfrom clothscope.runtime import mitsuba_for\nmitsuba_for('llvm_ad_rgb', 1)",
+}
+
+
+def fresh_interpreter_seconds(code: str, repeats: int) -> float:
+    """Median wall seconds of ``python -c code`` in a new process."""
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT)
+        times.append(time.perf_counter() - started)
+    return statistics.median(times)
+
+
+def loop_costs(curve: pd.DataFrame) -> dict[str, float]:
+    """Iterations, loop seconds, the first iterations' excess over a steady one, and a steady iteration's seconds."""
+    iterations = loops = excess = steady_total = 0.0
+    for _, phase in curve.groupby("phase", sort=False):
+        seconds = phase["seconds"].to_numpy()
+        steady = (seconds[-1] - seconds[0]) / (len(seconds) - 1) if len(seconds) > 1 else seconds[0]
+        iterations += len(seconds)
+        loops += seconds[-1]
+        excess += max(seconds[0] - steady, 0.0)
+        steady_total += seconds[-1] - seconds[0]
+    per_iteration = steady_total / max(iterations - curve["phase"].nunique(), 1)
+    return {"iterations": iterations, "loops_s": loops, "first_iteration_excess_s": excess,
+            "steady_iteration_s": per_iteration}
+
+
+def job_rows(run: Path) -> pd.DataFrame:
+    """One row per fitted image and stage of a run."""
+    rows = []
+    for stage in STAGES:
+        for bench in sorted((run / "benchmarks" / f"fit_{stage}").glob("*.tsv")):
+            curve_file = run / "fit" / bench.stem / stage / "loss.csv"
+            if not curve_file.exists():
+                continue
+            wall = float(pd.read_csv(bench, sep="\t").iloc[-1]["s"])
+            costs = loop_costs(pd.read_csv(curve_file))
+            rows.append({"image_id": bench.stem, "stage": stage, "wall_s": wall, **costs,
+                         "outside_loops_s": max(wall - costs["loops_s"], 0.0)})
+    return pd.DataFrame(rows)
+
+
+def summary(jobs: pd.DataFrame, start_up: dict[str, float]) -> pd.DataFrame:
+    """Median per stage of each part of a job's wall time."""
+    launch = start_up[list(START_UP)[-1]]
+    rows = []
+    for stage, group in jobs.groupby("stage", sort=False):
+        med = group.median(numeric_only=True)
+        rows.append({"stage": stage, "jobs": len(group), "wall s": med["wall_s"],
+                     "start-up (measured) s": launch,
+                     "set-up and writing s": max(med["outside_loops_s"] - launch, 0.0),
+                     "first iteration excess s": med["first_iteration_excess_s"],
+                     "steady iterations s": med["loops_s"] - med["first_iteration_excess_s"],
+                     "iterations": med["iterations"], "per iteration ms": 1000 * med["steady_iteration_s"]})
+    return pd.DataFrame(rows)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--run", type=Path, default=ROOT / "results")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
+    args = parser.parse_args()
+    jobs = job_rows(args.run)
+    if jobs.empty:
+        raise SystemExit(f"no fitted jobs with loss curves under {args.run}: run the workflow first")
+    start_up = {name: fresh_interpreter_seconds(code, args.repeats) for name, code in START_UP.items()}
+    table = summary(jobs, start_up)
+    lines = [f"Medians over {jobs['image_id'].nunique()} images of `{args.run.relative_to(ROOT) if args.run.is_relative_to(ROOT) else args.run}` "
+             "(jobs ran two side by side on two cores).", "",
+             table.to_markdown(index=False, floatfmt=".2f"), "",
+             f"Start-up of a job process, measured in fresh interpreters (median of {args.repeats}, idle machine):", ""]
+    lines += [f"- {name}: {seconds:.2f} s" for name, seconds in start_up.items()]
+    total = table["wall s"].sum()
+    fixed = (table["start-up (measured) s"] + table["set-up and writing s"] + table["first iteration excess s"]).sum()
+    lines += ["", f"Of the three stages' median wall time ({total:.1f} s), {fixed:.1f} s ({fixed / total:.0%}) is fixed cost "
+              "(start-up, set-up and writing, first-iteration excess); the rest is steady iterations."]
+    publish(args.out, "job_costs", jobs, "\n".join(lines) + "\n", float_format="%.4g")
+
+
+if __name__ == "__main__":
+    main()
