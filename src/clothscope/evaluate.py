@@ -171,7 +171,7 @@ def in_working_frame(truth: dict[str, Any], scale: dict[str, Any] | None, source
     thread periods, given in native pixels, shrink by the downscaling factor.
     Without a record (or an uncropped, unscaled photo) the truth is returned as it is.
     """
-    if not scale:
+    if not scale or source_px <= 0:
         return truth
     fraction = float(scale.get("crop_px", source_px)) / float(source_px)
     factor = float(scale.get("native_px_per_working_px", 1.0))
