@@ -85,7 +85,8 @@ def _fit(prepared: Path, work: Path, settings: dict[str, Any], threads: int, log
     step("fit_material")
     jobs.material_job(str(prepared), str(work / "geometry"), str(work / "material"), MaterialSettings(**fit["material"]), **common)
     step("fit_normals")
-    jobs.normals_job(str(prepared), str(work / "material"), str(work / "normals"), NormalSettings(**fit["normals"]), **common)
+    normals = {"colour_model": "one_colour"} | fit["normals"]  # a model recorded before colour_model was fitted with one colour
+    jobs.normals_job(str(prepared), str(work / "material"), str(work / "normals"), NormalSettings(**normals), **common)
     return work / "normals"
 
 

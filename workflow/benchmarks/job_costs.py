@@ -11,8 +11,9 @@ process is measured here directly, in fresh interpreters (``--repeats`` times,
 median): the interpreter alone, importing the fit package, and loading Mitsuba's
 LLVM variant. The remainder is the job's own set-up and writing (reading inputs,
 building the scene, the effects plan, the preview render, the output files).
-The run's jobs ran two side by side on two cores, so their figures include that
-sharing; the start-up figures are taken on an otherwise idle machine.
+The run's figures include whatever the jobs shared their cores with when they
+ran (the default profile runs two side by side on two cores); the start-up
+figures are taken now, so run it on an otherwise idle machine.
 Writes ``results/bench/job_costs.{csv,md}``.
 """
 from __future__ import annotations
@@ -24,6 +25,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 from harness import ROOT, STAGES, publish
 
@@ -47,18 +49,27 @@ def fresh_interpreter_seconds(code: str, repeats: int) -> float:
 
 
 def loop_costs(curve: pd.DataFrame) -> dict[str, float]:
-    """Iterations, loop seconds, the first iterations' excess over a steady one, and a steady iteration's seconds."""
-    iterations = loops = excess = steady_total = 0.0
+    """Iterations, loop seconds, the first iteration's excess over a steady one, and a steady iteration's seconds.
+
+    A loss curve's ``seconds`` is taken after each forward pass, before its
+    backward pass and step (:mod:`clothscope.fit.loop`): ``seconds[1]`` spans the
+    first forward, backward and step and the second forward, two iterations'
+    worth. A steady iteration is the median of the later intervals; the last
+    backward pass and step come after the last entry and are counted as one.
+    """
+    iterations = loops = excess = 0.0
+    steady_times = []
     for _, phase in curve.groupby("phase", sort=False):
         seconds = phase["seconds"].to_numpy()
-        steady = (seconds[-1] - seconds[0]) / (len(seconds) - 1) if len(seconds) > 1 else seconds[0]
+        intervals = np.diff(seconds)
+        steady = float(np.median(intervals[1:])) if len(intervals) > 1 else float(seconds[-1]) / len(seconds)
         iterations += len(seconds)
-        loops += seconds[-1]
-        excess += max(seconds[0] - steady, 0.0)
-        steady_total += seconds[-1] - seconds[0]
-    per_iteration = steady_total / max(iterations - curve["phase"].nunique(), 1)
+        loops += float(seconds[-1]) + steady
+        if len(seconds) > 1:
+            excess += max(float(seconds[1]) - 2.0 * steady, 0.0)
+        steady_times.append(steady)
     return {"iterations": iterations, "loops_s": loops, "first_iteration_excess_s": excess,
-            "steady_iteration_s": per_iteration}
+            "steady_iteration_s": float(np.average(steady_times, weights=curve.groupby("phase", sort=False).size()))}
 
 
 def job_rows(run: Path) -> pd.DataFrame:
@@ -72,6 +83,7 @@ def job_rows(run: Path) -> pd.DataFrame:
             wall = float(pd.read_csv(bench, sep="\t").iloc[-1]["s"])
             costs = loop_costs(pd.read_csv(curve_file))
             rows.append({"image_id": bench.stem, "stage": stage, "wall_s": wall, **costs,
+                         "steady_loops_s": costs["loops_s"] - costs["first_iteration_excess_s"],
                          "outside_loops_s": max(wall - costs["loops_s"], 0.0)})
     return pd.DataFrame(rows)
 
@@ -86,7 +98,7 @@ def summary(jobs: pd.DataFrame, start_up: dict[str, float]) -> pd.DataFrame:
                      "start-up (measured) s": launch,
                      "set-up and writing s": max(med["outside_loops_s"] - launch, 0.0),
                      "first iteration excess s": med["first_iteration_excess_s"],
-                     "steady iterations s": med["loops_s"] - med["first_iteration_excess_s"],
+                     "steady iterations s": med["steady_loops_s"],
                      "iterations": med["iterations"], "per iteration ms": 1000 * med["steady_iteration_s"]})
     return pd.DataFrame(rows)
 
@@ -103,9 +115,9 @@ def main() -> None:
     start_up = {name: fresh_interpreter_seconds(code, args.repeats) for name, code in START_UP.items()}
     table = summary(jobs, start_up)
     lines = [f"Medians over {jobs['image_id'].nunique()} images of `{args.run.relative_to(ROOT) if args.run.is_relative_to(ROOT) else args.run}` "
-             "(jobs ran two side by side on two cores).", "",
+             "(as its jobs ran; the default profile runs two side by side on two cores).", "",
              table.to_markdown(index=False, floatfmt=".2f"), "",
-             f"Start-up of a job process, measured in fresh interpreters (median of {args.repeats}, idle machine):", ""]
+             f"Start-up of a job process, measured in fresh interpreters (median of {args.repeats}):", ""]
     lines += [f"- {name}: {seconds:.2f} s" for name, seconds in start_up.items()]
     total = table["wall s"].sum()
     fixed = (table["start-up (measured) s"] + table["set-up and writing s"] + table["first iteration excess s"]).sum()
