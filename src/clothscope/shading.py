@@ -15,7 +15,7 @@ floats is lightened by defocus and by light bounced off its neighbours, so it
 reads lighter than the navy of a solid stripe. Dividing by one mean per group
 then leaves a step at every colour repeat. The shading is therefore also
 cleared of what the dye layout explains: its least-squares fit on each
-group's map blurred at :data:`LAYOUT_SCALES` is subtracted (the mean kept).
+group's map blurred at :data:`LAYOUT_SCALES` is subtracted (its constant term kept).
 """
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def dye_groups(rgb: np.ndarray, seed: int = 0) -> np.ndarray:
 
 
 def without_layout(field: np.ndarray, groups: np.ndarray) -> np.ndarray:
-    """``field`` less its least-squares fit on the blurred dye-group maps (its mean kept); unchanged for one group."""
+    """``field`` less the blurred dye-group maps' part of its least-squares fit (the constant term kept); unchanged for one group."""
     maps = [ndimage.gaussian_filter((groups == g).astype(np.float64), sigma, mode="reflect").ravel()
             for g in range(int(groups.max())) for sigma in LAYOUT_SCALES]
     if not maps:

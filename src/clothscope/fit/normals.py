@@ -67,7 +67,7 @@ class NormalSettings:
 
 #: File of the fitted shade texture in the stage's output folder (three equal channels).
 SHADE_FILE = "shade.exr"
-#: File of the fitted base-colour texture (linear RGB: colour times shade), which ``scene.xml`` reads.
+#: File of the fitted base-colour texture (linear RGB: colour times shade times dye layout), which ``scene.xml`` reads.
 ALBEDO_FILE = "albedo.exr"
 #: Logistic latent of a shade of 1 (the shade texture's start and prior centre); s0 = sigmoid(SHADE_LATENT0).
 SHADE_LATENT0 = 2.0
