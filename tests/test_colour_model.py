@@ -1,10 +1,14 @@
 """Colour model of the normal-map fit (clothscope.fit.colour): one colour, or the photo's dye layout."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from clothscope.fit.colour import choose_colour_model, layout_texture, texel_groups
+from clothscope.fit.colour import VALLEY_FRACTION, choose_colour_model, layout_texture, texel_groups, valley_ratio
+from clothscope.imageio import read_png, srgb_to_linear
+from clothscope.shading import chromaticity, dye_groups
 
 
 def two_dye_photo(size: int = 64) -> np.ndarray:
@@ -47,3 +51,30 @@ def test_one_dye_or_one_colour_asked_gives_one_colour():
         assert model.kind == "one_colour" and model.layout is None
     with pytest.raises(ValueError, match="colour_model"):
         choose_colour_model("stripes", photo, 64, 0.06)
+
+
+EMBEDDED = Path(__file__).resolve().parents[1] / "data" / "synthetic"
+
+
+def embedded_photo(fabric: str, image_id: str) -> np.ndarray:
+    """An embedded render in linear RGB."""
+    return srgb_to_linear(read_png(EMBEDDED / fabric / f"{image_id}.png"))[..., :3]
+
+
+# one dye each: a satin whose highlights fade from the dye to white, an open weave whose holes show a dark backdrop
+@pytest.mark.parametrize("fabric,image_id", [("satin", "satin_red"), ("satin", "satin_green"),
+                                             ("cotton_gauze", "cotton_gauze_charcoal")])
+def test_auto_keeps_one_colour_where_one_dye_splits_into_groups(fabric, image_id):
+    photo = embedded_photo(fabric, image_id)
+    assert choose_colour_model("dye_layout", photo, 64, 0.06).kind == "dye_layout"  # the groups exist
+    assert choose_colour_model("auto", photo, 64, 0.06).kind == "one_colour"
+
+
+def test_two_dyes_are_two_chromaticity_modes_and_a_highlight_is_not():
+    chroma = chromaticity(two_dye_photo().reshape(-1, 3))
+    red, ecru = chromaticity(np.array([0.55, 0.05, 0.05])), chromaticity(np.array([0.62, 0.58, 0.48]))
+    assert valley_ratio(chroma, red, ecru) < 0.1
+    satin = embedded_photo("satin", "satin_red").reshape(-1, 3)
+    groups = dye_groups(satin.reshape(256, 256, 3)).ravel()
+    dye, highlight = (chromaticity(satin[groups == g].mean(axis=0)) for g in range(2))
+    assert valley_ratio(chromaticity(satin), dye, highlight) > VALLEY_FRACTION

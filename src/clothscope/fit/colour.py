@@ -7,9 +7,20 @@ the working photo holds more than one dye group
 base colour the fitted colour times a fixed *layout* texture: each texel's
 dye-group mean colour over the photo's mean colour, so the fitted colour stays
 the cloth's mean colour. The layout is read from the photo, not optimised, so
-no relief can leak into it. ``auto`` picks ``dye_layout`` when the photo holds
-more than one dye group and ``one_colour`` otherwise; the choice is recorded in
-the stage's ``state.json``.
+no relief can leak into it. The choice is recorded in the stage's ``state.json``.
+
+``dye_layout`` uses the layout whenever the photo holds more than one dye
+group. ``auto`` asks for more evidence, because one dye can split into
+chromaticity groups too: a specular highlight or a grey backdrop seen through
+a sheer cloth mixes the dye with a neutral colour in every proportion, and
+near-black pixels (holes over a dark backdrop) have a chromaticity that is
+mostly noise. ``auto`` therefore ignores groups darker than
+:data:`DARK_FRACTION` of the photo's mean luminance and picks ``dye_layout``
+only when the two largest remaining groups are two modes of the pixels'
+chromaticity: along the line joining the groups' mean chromaticities, the
+density between the two peaks dips to at most :data:`VALLEY_FRACTION` of the
+lower peak. Dyes meet at yarn edges, so few pixels lie between them; a
+highlight fades into the dye, so its pixels fill the line.
 """
 from __future__ import annotations
 
@@ -18,10 +29,19 @@ from typing import Any
 
 import numpy as np
 
-from ..shading import dye_groups
+from scipy import ndimage
+
+from ..shading import chromaticity, dye_groups
+from .light import luminance
 
 #: values of ``fit.normals.colour_model``
 COLOUR_MODELS = ("auto", "one_colour", "dye_layout")
+#: ``auto``: a dye group darker than this fraction of the photo's mean luminance is not a dye (its chromaticity is noise)
+DARK_FRACTION = 0.1
+#: ``auto``: two groups are two dyes when the chromaticity density between them dips to this fraction of the lower peak
+VALLEY_FRACTION = 0.7
+#: histogram of the pixels' position along the line between two groups (0 at one group's mean, 1 at the other's)
+LINE_BINS, LINE_RANGE, LINE_SMOOTHING = 40, (-0.5, 1.5), 1.0
 
 
 @dataclass(frozen=True)
@@ -53,6 +73,41 @@ def layout_texture(photo: np.ndarray, groups: np.ndarray, texture: int, margin: 
     return ratios[texel_groups(groups, texture, margin)].astype(np.float32), tuple(float(s) for s in shares)
 
 
+def valley_ratio(chroma: np.ndarray, first: np.ndarray, second: np.ndarray) -> float:
+    """Lowest chromaticity density between two groups' peaks over the lower peak (1 when one group has no peak of its own).
+
+    ``chroma`` holds the pixels' (N, 2) chromaticities; ``first`` and ``second`` are two groups' mean chromaticities.
+    """
+    line = second - first
+    position = (chroma - first) @ line / max(float(line @ line), 1e-12)
+    counts, edges = np.histogram(position, bins=LINE_BINS, range=LINE_RANGE)
+    density = ndimage.gaussian_filter1d(counts.astype(np.float64), LINE_SMOOTHING)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    low = int(np.argmax(np.where(centres < 0.5, density, -1.0)))
+    high = int(np.argmax(np.where(centres > 0.5, density, -1.0)))
+    lower_peak = min(density[low], density[high])
+    if lower_peak <= 0:
+        return 1.0
+    return float(density[low:high + 1].min() / lower_peak)
+
+
+def distinct_dyes(photo: np.ndarray, groups: np.ndarray) -> bool:
+    """Whether the two largest groups that are not dark are two modes of the pixels' chromaticity (``auto``'s test).
+
+    ``photo`` is (H, W, 3) linear RGB and ``groups`` its (H, W) dye groups.
+    """
+    grey = luminance(photo)
+    floor = DARK_FRACTION * max(float(grey.mean()), 1e-12)
+    usable = grey >= floor
+    sizes = np.bincount(groups.ravel(), minlength=int(groups.max()) + 1)
+    dyes = [g for g in np.argsort(sizes)[::-1] if sizes[g] > 0 and grey[groups == g].mean() >= floor][:2]
+    if len(dyes) < 2 or not usable.any():
+        return False
+    first, second = (chromaticity(photo[groups == g].mean(axis=0)) for g in dyes)
+    chroma = chromaticity(photo[usable])
+    return valley_ratio(chroma, first, second) <= VALLEY_FRACTION
+
+
 def choose_colour_model(kind: str, photo: np.ndarray, texture: int, margin: float) -> ColourModel:
     """The colour model of ``kind`` for a working photo (linear RGB); a photo with one dye group always gets ``one_colour``.
 
@@ -65,8 +120,9 @@ def choose_colour_model(kind: str, photo: np.ndarray, texture: int, margin: floa
         raise ValueError(f"colour_model must be one of {', '.join(COLOUR_MODELS)}, got {kind!r}")
     if kind == "one_colour":
         return ColourModel("one_colour")
-    groups = dye_groups(np.asarray(photo, dtype=np.float64)[..., :3])
-    if groups.max() == 0:
+    rgb = np.asarray(photo, dtype=np.float64)[..., :3]
+    groups = dye_groups(rgb)
+    if groups.max() == 0 or (kind == "auto" and not distinct_dyes(rgb, groups)):
         return ColourModel("one_colour")
-    layout, shares = layout_texture(np.asarray(photo, dtype=np.float64)[..., :3], groups, texture, margin)
+    layout, shares = layout_texture(rgb, groups, texture, margin)
     return ColourModel("dye_layout", layout, shares)
