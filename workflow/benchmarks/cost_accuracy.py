@@ -132,7 +132,8 @@ def report(table: pd.DataFrame, summary: pd.DataFrame, not_measured: dict[str, s
     """Markdown report: the per-variant summary, the effects ablation side by side, and what was not measured."""
     lines = ["# What accuracy costs in time", "",
              "Medians per variant (times per 256 px image with 2 images sharing 2 cores; presets on the whole sheet, "
-             "knob variants on the subset).", "", summary.round(4).to_markdown(index=False), ""]
+             "knob variants on the subset; `-`: not measured for that variant).", "",
+             summary.round(4).astype(object).where(summary.notna(), "-").to_markdown(index=False), ""]
     if {"default (subset)", "full-effects"} <= set(table["variant"]):
         lines += ["## Effects ablation: planned effects against forced full effects (same images)", "",
                   effects_comparison(table, "variant", "default (subset)", "full-effects")]
@@ -164,6 +165,8 @@ def main() -> int:
     if unknown:
         raise SystemExit(f"cost_accuracy: error: unknown variant(s) {', '.join(unknown)}; choose from {', '.join(VARIANTS)}")
     not_measured = {"paper": paper_not_run()} if "paper" not in requested else {}
+    not_measured |= {name: f"not run in this report (`--variants {name}`)" for name in DEFAULT_VARIANTS
+                     if name not in requested and name != "cuda"}
     if "cuda" in requested and not cuda_available():
         requested.remove("cuda")
         not_measured["cuda"] = "not measured: no CUDA GPU on this machine (Dr.Jit's CUDA backend did not initialise)"

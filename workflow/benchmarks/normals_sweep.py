@@ -53,6 +53,7 @@ def fit_one(job: tuple[str, str, dict]) -> dict:
     """Rerun ``fit_normals`` of one image from its material stage; its fitted and true roughness and seconds."""
     import logging
 
+    from clothscope.fit.colour import choose_colour_model
     from clothscope.fit.effects import geometry_evidence, plan_stage
     from clothscope.fit.normals import NormalSettings, fit_normals
     from clothscope.fit.stage import at_resolution, load_prepared, load_state
@@ -64,9 +65,11 @@ def fit_one(job: tuple[str, str, dict]) -> dict:
     fit, _ = load_state(ROOT / "results" / "fit" / image / "material")
     photo = load_prepared(ROOT / "results" / "prepared" / image)
     plan = plan_stage("normals", geometry_evidence(fit.grid, fit.camera, fit.light))
+    normal_settings = NormalSettings(**settings)
     started = time.perf_counter()
-    _, material, _, _ = fit_normals(mi, fit, at_resolution(photo, settings["resolution"]), plan, NormalSettings(**settings),
-                                 logging.getLogger("normals_sweep"))
+    colour = choose_colour_model(normal_settings.colour_model, photo.image, normal_settings.texture, fit.margin)
+    _, material, _, _ = fit_normals(mi, fit, at_resolution(photo, settings["resolution"]), plan, normal_settings,
+                                 logging.getLogger("normals_sweep"), colour)
     return {"image_id": image, "fabric_class": fabric_class, "roughness": material.roughness,
             "roughness_true": truth["roughness"], "roughness_error": abs(material.roughness - truth["roughness"]),
             "normals_s": time.perf_counter() - started}

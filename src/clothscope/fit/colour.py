@@ -28,7 +28,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
 from scipy import ndimage
 
 from ..shading import chromaticity, dye_groups
