@@ -52,7 +52,9 @@ class ColourModel:
     shares: tuple[float, ...] = (1.0,)
 
     def as_record(self) -> dict[str, Any]:
-        return {"kind": self.kind, "dye_groups": len(self.shares), "shares": [round(float(s), 4) for s in self.shares]}
+        """What ``state.json`` records: the kind, the number of groups that cover any texel, and every group's share."""
+        return {"kind": self.kind, "dye_groups": sum(1 for s in self.shares if s > 0),
+                "shares": [round(float(s), 4) for s in self.shares]}
 
 
 def texel_groups(groups: np.ndarray, texture: int, margin: float) -> np.ndarray:
