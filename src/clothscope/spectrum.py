@@ -58,10 +58,9 @@ Choices the paper leaves open, and what is done here
   (0 otherwise). The ratio is unchanged when the z map is multiplied by a
   constant, and, unlike the raw signal-to-noise ratio, it hardly moves when
   the map is zoomed or cropped: zooming in packs the harmonics into fewer
-  bins, which raises the floor standard deviation over the fixed annulus by
-  ~40% and lowered raw SNRs by ~25% on the synthetic set, moving ~20% of
-  7-class predictions, whereas the relative heights of peaks are a property
-  of the weave. (Only approximately invariant to scaling the surface *tilt*:
+  bins, which raises the floor standard deviation over the fixed annulus and
+  lowers raw SNRs (docs/design.md, "Strong peaks"), whereas the relative
+  heights of peaks are a property of the weave. (Only approximately invariant to scaling the surface *tilt*:
   ``n_z = 1 / sqrt(1 + |grad h|^2)`` is not linear in it.)
 * **Ordering.** Algorithm 2 sorts by ``z`` then ``r``; the running text says
   "by radial distance, then by height". We follow Algorithm 2 (strongest
@@ -102,34 +101,8 @@ The rest of Algorithm 2 (threshold, merge, order, the ``r``/``z`` features)
 is unchanged. ``"strongest"`` (``R`` = radius of the highest peak, so
 ``r_1 == 1``) is also available; it was *less* invariant on the synthetic set.
 
-Measured on the 42 synthetic ground-truth maps (QDA of
-:func:`clothscope.classify.make_qda`, leave-one-out, features roughness,
-specular, ``r_*``, ``z_*``, ``n_peaks``; a held-out map counts as changed when
-its prediction from the rotated / zoomed map differs from that from the
-original map; :mod:`clothscope.invariance`; rotation by 30 degrees with a
-185-texel valid centre crop, zoom 1.5x cropped to 256 texels, cubic-spline
-resampling):
-
-========================  =============  =========  =========
-classes, normalisation    LOOCV correct  rotate 30  zoom 1.5
-========================  =============  =========  =========
-5, paper (max / all)      29/30          2/30       2/30
-5, default                29/30          1/30       1/30
-6 (+knit), paper          34/36          6/36       4/36
-6 (+knit), default        34/36          2/36       2/36
-7, paper                  39/42          6/42       5/42
-7, default                40/42          1/42       1/42
-========================  =============  =========  =========
-
-(5 classes: n=2, alpha=2, dc 20, peak 15; 6 and 7 classes: n=2, alpha=3,
-dc 20, peak 25; with the 5-class settings the 6 classes give 34/36, 3/36,
-6/36 (paper) and 35/36, 2/36, 1/36 (default).) **Caveat:** ``strong_fraction`` was chosen on these same 42
-maps and the optimum is sharp: 0.45 or 0.55 each miss a target (0.45: 7
-classes 3/42 changed by zoom; 0.55: 5 classes 2/30 changed, accuracy 28/30),
-and at 0.3-0.4 and 0.6-0.7 the 7-class change rates (3 to 13 of 42)
-are about as bad as, or worse than, the paper's definition. Expect the
-change rates on new data to be closer to the paper-setting figures than the
-table suggests until this is checked on maps the value was not tuned on.
+What the strong-peak definitions changed on the synthetic ground-truth maps,
+and how ``strong_fraction`` was chosen: docs/design.md, "Strong peaks".
 
 Extra features (:func:`extra_features`, prefixed ``x_``) are rotation, scale
 and colour invariant summaries kept apart from the paper's feature set.
