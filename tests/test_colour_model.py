@@ -11,11 +11,11 @@ from clothscope.imageio import read_png, srgb_to_linear
 from clothscope.shading import chromaticity, dye_groups
 
 
-def two_dye_photo(size: int = 64) -> np.ndarray:
-    """Red and ecru stripes 8 px wide along the columns, with a thread relief."""
+def two_dye_photo(size: int = 64, first: tuple[float, float, float] = (0.55, 0.05, 0.05)) -> np.ndarray:
+    """Stripes of ``first`` (red) and ecru 8 px wide along the columns, with a thread relief."""
     y, x = np.mgrid[:size, :size].astype(float)
     relief = 0.75 + 0.2 * np.cos(2 * np.pi * x / 4) * np.cos(2 * np.pi * y / 4)
-    dye = np.where(((x // 8) % 2 == 1)[..., None], [0.62, 0.58, 0.48], [0.55, 0.05, 0.05])
+    dye = np.where(((x // 8) % 2 == 1)[..., None], [0.62, 0.58, 0.48], list(first))
     return relief[..., None] * dye
 
 
@@ -70,6 +70,26 @@ def test_auto_keeps_one_colour_where_one_dye_splits_into_groups(fabric, image_id
     photo = embedded_photo(fabric, image_id)
     assert choose_colour_model("dye_layout", photo, 64, 0.06).kind == "dye_layout"  # the groups exist
     assert choose_colour_model("auto", photo, 64, 0.06).kind == "one_colour"
+
+
+def holes_over_black(size: int = 64, seed: int = 0) -> np.ndarray:
+    """Ivory yarns over a black backdrop: a quarter of the pixels are near-black, with a chromaticity that is noise."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[:size, :size]
+    photo = np.array([0.75, 0.73, 0.66]) * (0.9 + 0.1 * rng.random((size, size, 1)))
+    holes = ((x % 4) < 2) & ((y % 4) < 2)
+    photo[holes] = rng.uniform(0.0, 0.003, size=(int(holes.sum()), 3)) * [1.0, 0.2, 0.2]
+    return photo
+
+
+def test_near_black_pixels_are_not_a_dye_but_a_dark_dye_is(monkeypatch):
+    holes = holes_over_black()
+    assert choose_colour_model("dye_layout", holes, 64, 0.0).kind == "dye_layout"  # the noise forms a group
+    assert choose_colour_model("auto", holes, 64, 0.0).kind == "one_colour"
+    navy = two_dye_photo(first=(0.01, 0.012, 0.05))  # navy stripes on ecru: dark, but far above the noise
+    assert choose_colour_model("auto", navy, 64, 0.0).kind == "dye_layout"
+    monkeypatch.setattr("clothscope.fit.colour.DARK_LUMINANCE", 0.0)  # the rule is what keeps the noise out
+    assert choose_colour_model("auto", holes, 64, 0.0).kind == "dye_layout"
 
 
 def test_two_dyes_are_two_chromaticity_modes_and_a_highlight_is_not():

@@ -60,8 +60,9 @@ Choices the paper leaves open, and what is done here
   the map is zoomed or cropped: zooming in packs the harmonics into fewer
   bins, which raises the floor standard deviation over the fixed annulus and
   lowers raw SNRs (docs/design.md, "Strong peaks"), whereas the relative
-  heights of peaks are a property of the weave. (Only approximately invariant to scaling the surface *tilt*:
-  ``n_z = 1 / sqrt(1 + |grad h|^2)`` is not linear in it.)
+  heights of peaks are a property of the weave. (Only approximately invariant
+  to scaling the surface *tilt*: ``n_z = 1 / sqrt(1 + |grad h|^2)`` is not
+  linear in it.)
 * **Ordering.** Algorithm 2 sorts by ``z`` then ``r``; the running text says
   "by radial distance, then by height". We follow Algorithm 2 (strongest
   first): the strongest peaks are the thread fundamentals (or, for thin-yarn

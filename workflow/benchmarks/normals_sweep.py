@@ -65,10 +65,10 @@ def fit_one(job: tuple[str, str, dict]) -> dict:
     fit, _ = load_state(ROOT / "results" / "fit" / image / "material")
     photo = load_prepared(ROOT / "results" / "prepared" / image)
     plan = plan_stage("normals", geometry_evidence(fit.grid, fit.camera, fit.light))
-    normal_settings = NormalSettings(**settings)
+    knobs = NormalSettings(**settings)
     started = time.perf_counter()
-    colour = choose_colour_model(normal_settings.colour_model, photo.image, normal_settings.texture, fit.margin)
-    _, material, _, _ = fit_normals(mi, fit, at_resolution(photo, settings["resolution"]), plan, normal_settings,
+    colour = choose_colour_model(knobs.colour_model, photo.image, knobs.texture, fit.margin)
+    _, material, _, _ = fit_normals(mi, fit, at_resolution(photo, settings["resolution"]), plan, knobs,
                                  logging.getLogger("normals_sweep"), colour)
     return {"image_id": image, "fabric_class": fabric_class, "roughness": material.roughness,
             "roughness_true": truth["roughness"], "roughness_error": abs(material.roughness - truth["roughness"]),

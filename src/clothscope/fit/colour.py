@@ -14,12 +14,12 @@ group. ``auto`` asks for more evidence, because one dye can split into
 chromaticity groups too: a specular highlight or a grey backdrop seen through
 a sheer cloth mixes the dye with a neutral colour in every proportion, and
 near-black pixels (holes over a dark backdrop) have a chromaticity that is
-mostly noise. ``auto`` therefore ignores groups darker than
-:data:`DARK_FRACTION` of the photo's mean luminance and picks ``dye_layout``
-only when the two largest remaining groups are two modes of the pixels'
-chromaticity: along the line joining the groups' mean chromaticities, the
-density between the two peaks dips to at most :data:`VALLEY_FRACTION` of the
-lower peak. Dyes meet at yarn edges, so few pixels lie between them; a
+mostly noise. ``auto`` therefore sets aside pixels and groups darker than
+:data:`DARK_LUMINANCE` and picks ``dye_layout`` only when the two largest
+remaining groups are two modes of the pixels' chromaticity: along the line
+joining the chromaticities of the two groups' mean colours, the density of the
+remaining pixels between the two peaks dips to at most :data:`VALLEY_FRACTION`
+of the lower peak. Dyes meet at yarn edges, so few pixels lie between them; a
 highlight fades into the dye, so its pixels fill the line.
 """
 from __future__ import annotations
@@ -35,8 +35,8 @@ from .light import luminance
 
 #: values of ``fit.normals.colour_model``
 COLOUR_MODELS = ("auto", "one_colour", "dye_layout")
-#: ``auto``: a dye group darker than this fraction of the photo's mean luminance is not a dye (its chromaticity is noise)
-DARK_FRACTION = 0.1
+#: ``auto``: linear luminance below which a pixel's chromaticity is mostly noise (8-bit sRGB codes below about 18)
+DARK_LUMINANCE = 0.005
 #: ``auto``: two groups are two dyes when the chromaticity density between them dips to this fraction of the lower peak
 VALLEY_FRACTION = 0.7
 #: histogram of the pixels' position along the line between two groups (0 at one group's mean, 1 at the other's)
@@ -52,7 +52,7 @@ class ColourModel:
     shares: tuple[float, ...] = (1.0,)
 
     def as_record(self) -> dict[str, Any]:
-        """What ``state.json`` records: the kind, the number of groups that cover any texel, and every group's share."""
+        """What ``state.json`` records: the kind, the number of groups that hold any photo pixel, and every group's share."""
         return {"kind": self.kind, "dye_groups": sum(1 for s in self.shares if s > 0),
                 "shares": [round(float(s), 4) for s in self.shares]}
 
@@ -77,7 +77,8 @@ def layout_texture(photo: np.ndarray, groups: np.ndarray, texture: int, margin: 
 def valley_ratio(chroma: np.ndarray, first: np.ndarray, second: np.ndarray) -> float:
     """Lowest chromaticity density between two groups' peaks over the lower peak (1 when one group has no peak of its own).
 
-    ``chroma`` holds the pixels' (N, 2) chromaticities; ``first`` and ``second`` are two groups' mean chromaticities.
+    ``chroma`` holds the pixels' (N, 2) chromaticities; ``first`` and ``second`` are the chromaticities of two groups'
+    mean colours.
     """
     line = second - first
     position = (chroma - first) @ line / max(float(line @ line), 1e-12)
@@ -93,15 +94,14 @@ def valley_ratio(chroma: np.ndarray, first: np.ndarray, second: np.ndarray) -> f
 
 
 def distinct_dyes(photo: np.ndarray, groups: np.ndarray) -> bool:
-    """Whether the two largest groups that are not dark are two modes of the pixels' chromaticity (``auto``'s test).
+    """Whether the two largest groups that are not near-black are two modes of the pixels' chromaticity (``auto``'s test).
 
-    ``photo`` is (H, W, 3) linear RGB and ``groups`` its (H, W) dye groups.
+    ``photo`` is (H, W, 3) finite linear RGB and ``groups`` its (H, W) dye groups.
     """
     grey = luminance(photo)
-    floor = DARK_FRACTION * max(float(grey.mean()), 1e-12)
-    usable = grey >= floor
+    usable = grey >= DARK_LUMINANCE
     sizes = np.bincount(groups.ravel(), minlength=int(groups.max()) + 1)
-    dyes = [g for g in np.argsort(sizes)[::-1] if sizes[g] > 0 and grey[groups == g].mean() >= floor][:2]
+    dyes = [g for g in np.argsort(sizes)[::-1] if sizes[g] > 0 and grey[groups == g].mean() >= DARK_LUMINANCE][:2]
     if len(dyes) < 2 or not usable.any():
         return False
     first, second = (chromaticity(photo[groups == g].mean(axis=0)) for g in dyes)
@@ -110,7 +110,10 @@ def distinct_dyes(photo: np.ndarray, groups: np.ndarray) -> bool:
 
 
 def choose_colour_model(kind: str, photo: np.ndarray, texture: int, margin: float) -> ColourModel:
-    """The colour model of ``kind`` for a working photo (linear RGB); a photo with one dye group always gets ``one_colour``.
+    """The colour model of ``kind`` for a working photo (finite linear RGB).
+
+    A photo with one dye group always gets ``one_colour``; under ``auto`` so does one whose groups fail
+    :func:`distinct_dyes`.
 
     Raises
     ------
