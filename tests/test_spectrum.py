@@ -61,7 +61,9 @@ def test_constant_map_has_no_peaks(value, size):
     assert _all_finite(extra_features(result))
 
 
-@settings(max_examples=15, deadline=None)
+# a map of noise has about 0.1 false peaks on average (the rate test below), so a few seeds in ten thousand give three:
+# the examples are drawn the same way every run
+@settings(max_examples=15, deadline=None, derandomize=True)
 @given(st.integers(0, 2**32 - 1))
 def test_gaussian_noise_gives_finite_features_and_few_peaks(seed):
     z = np.random.default_rng(seed).normal(0.9, 0.05, (64, 64))
@@ -75,7 +77,7 @@ def test_gaussian_noise_gives_finite_features_and_few_peaks(seed):
 CALIBRATED = 6.0
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=30, deadline=None, derandomize=True)  # drawn the same way every run, as above
 @given(st.integers(0, 2**32 - 1), st.sampled_from([64, 128, 256, 512]), st.sampled_from([0.0, 1.0, 2.5]))
 def test_noise_finds_no_threads(seed, size, smoothing):
     """White or smoothed noise, of any size: the noise-calibrated test lets through about 0.1 false peaks per map."""
