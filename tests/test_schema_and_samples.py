@@ -116,3 +116,20 @@ def test_every_preset_is_a_valid_config_and_fast_is_cheaper():
 def test_unknown_preset_is_one_line_naming_the_known_ones():
     with pytest.raises(InputError, match=r"unknown preset 'turbo'; known: default, fast, paper"):
         apply_preset({"preset": "turbo"}, ROOT / "config" / "presets")
+
+
+def merged(base: dict, overlay: dict) -> dict:
+    """``overlay`` merged over ``base`` key by key, as Snakemake merges a second ``--configfile``."""
+    out = dict(base)
+    for key, value in overlay.items():
+        out[key] = merged(base.get(key, {}), value) if isinstance(value, dict) else value
+    return out
+
+
+@pytest.mark.parametrize("overlay", sorted((ROOT / "config" / "overlays").glob("*.yaml")), ids=lambda p: p.stem)
+def test_every_overlay_is_a_valid_config_over_the_default(overlay):
+    base = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    changes = yaml.safe_load(overlay.read_text())
+    config = validate(merged(base, changes), CONFIG_SCHEMA, overlay.name)
+    assert config != validate(base, CONFIG_SCHEMA, "config"), f"{overlay.name} changes nothing"
+    assert overlay.read_text().lstrip().startswith("#"), f"{overlay.name} does not say what it is for"
