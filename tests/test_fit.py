@@ -362,3 +362,35 @@ def test_pinned_depth_removes_mean_and_tilt_alike_in_numpy_and_drjit(mi, pin_til
         assert np.allclose(pinned, z - z.mean())
     in_drjit = pinned_depth(mi.Float(z), mi.Float(x), mi.Float(y), slopes, dr.sum)
     assert np.allclose(np.array(in_drjit), pinned, atol=1e-5)
+
+
+def test_curvature_is_the_four_neighbour_laplacian(mi):
+    """curvature(h) of h = x^2 + y^2 (texel units) is 4 inside the map; a flat map has none."""
+    from clothscope.fit.normals import curvature, neighbour_indices
+
+    size = 8
+    neighbours = {k: mi.UInt32(v) for k, v in neighbour_indices(size).items()}
+    rows, cols = np.meshgrid(np.arange(size, dtype=float), np.arange(size, dtype=float), indexing="ij")
+    lap = np.array(curvature(mi, mi.Float((rows**2 + cols**2).ravel()), neighbours)).reshape(size, size)
+    assert np.allclose(lap[1:-1, 1:-1], 4.0)
+    assert np.allclose(np.array(curvature(mi, mi.Float(np.full(size * size, 3.0)), neighbours)), 0.0)
+
+
+def test_smoothness_prior_lowers_the_fitted_relief_curvature(tmp_path):
+    """smoothness > 0: the same tiny fit ends with a height map of lower mean squared Laplacian, and stays finite."""
+    def mean_curvature(height: np.ndarray) -> float:
+        padded = np.pad(height, 1, mode="edge")
+        lap = padded[1:-1, 2:] + padded[1:-1, :-2] + padded[2:, 1:-1] + padded[:-2, 1:-1] - 4 * height
+        return float(np.mean(lap**2))
+
+    photo = SYNTHETIC / "canvas" / "canvas_red.png"
+    curvatures = {}
+    for weight in (0.0, 0.01):
+        settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=0, smoothness=weight)
+        state = run_tiny_fit(photo, tmp_path / str(weight), normals=settings)
+        folder = tmp_path / str(weight) / "fit" / "normals"
+        assert state["status"] == "fitted"
+        assert_all_finite(state, folder)
+        height = read_exr(folder / "height.exr")
+        curvatures[weight] = mean_curvature(height[..., 0] if height.ndim == 3 else height)
+    assert curvatures[0.01] < 0.5 * curvatures[0.0]

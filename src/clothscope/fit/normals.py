@@ -24,6 +24,12 @@ mean|s - 1|`` lets the shade take only what the relief cannot explain under
 the one light: holes showing a backdrop, occluded crevices, dyed yarns. It
 is written as ``shade.exr`` and the colour texture as ``albedo.exr``.
 
+With ``smoothness > 0`` the loss adds ``smoothness * mean(lap(h)^2)``, the
+squared 4-neighbour Laplacian of the height map in texel widths: woven and
+knitted relief is smooth at the texel scale, so brightness that changes from
+one pixel to the next (sensor and JPEG noise, fibres, dark holes under a light
+near the camera) is not explained by a tilt that flips from texel to texel.
+
 With the ``dye_layout`` colour model (:mod:`.colour`) the base colour is also
 a texture: the fitted colour times the photo's fixed dye layout (times the
 shade, when there is one), written as ``albedo.exr`` too.
@@ -62,6 +68,7 @@ class NormalSettings:
     joint_learning_rate: float = 0.02
     min_roughness: float = 0.05
     albedo_weight: float = 0.0  # > 0: fit a shade texture with this L1 prior weight (0: one colour)
+    smoothness: float = 0.0  # weight of the curvature prior: mean squared Laplacian of the height map (texel units)
     colour_model: str = "auto"  # auto, one_colour or dye_layout (clothscope.fit.colour)
 
 
@@ -98,6 +105,14 @@ def normal_texture(mi: ModuleType, height: Any, neighbours: dict[str, Any], size
     dy = -(g("down") - g("up")) * 0.5
     n = dr.normalize(mi.Vector3f(-dx, -dy, 1.0))
     return mi.TensorXf(dr.ravel(n * 0.5 + 0.5), shape=(size, size, 3))
+
+
+def curvature(mi: ModuleType, height: Any, neighbours: dict[str, Any]) -> Any:
+    """Differentiable 4-neighbour Laplacian of a flat height array (clamped at the border)."""
+    import drjit as dr
+
+    g = lambda key: dr.gather(mi.Float, height, neighbours[key])  # noqa: E731
+    return g("left") + g("right") + g("up") + g("down") - 4.0 * height
 
 
 def shade_of(mi: ModuleType, latent: Any) -> Any:
@@ -148,6 +163,8 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
             params[BSDF_KEYS["albedo"]] = albedo_texture(mi, latents["color"], size, opt["shade"] if shaded else None, layout)
         params.update()
         loss = image_loss(mi, render(mi, scene, params, settings.spp, it, settings.spp_grad), target)
+        if settings.smoothness > 0:
+            loss = loss + settings.smoothness * dr.mean(dr.square(curvature(mi, opt["height"], neighbours)))
         if shaded:
             loss = loss + settings.albedo_weight * dr.mean(dr.abs(shade_of(mi, opt["shade"]) - 1.0))
         return loss
