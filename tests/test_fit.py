@@ -63,7 +63,7 @@ def render_case(mi, path, material: Material, light: PointLight, grid: np.ndarra
     """Render a 64 px photo of the fit model itself and save it as an 8-bit sRGB PNG."""
     camera = FitCamera()
     fit = FitScene(camera, light, plane_grid(camera, 32) if grid is None else grid, 0.06, material)
-    image = np.array(mi.render(build_scene(mi, fit, 64, {"type": "direct"}), spp=16, seed=1))[..., :3] * gain
+    image = np.array(mi.render(build_scene(mi, fit, 64, {"type": "direct"}, "independent"), spp=16, seed=1))[..., :3] * gain
     write_png(path, linear_to_srgb(np.clip(image, 0, 1)))
 
 
@@ -136,7 +136,8 @@ def test_a_striped_flat_cloth_keeps_its_stripes_in_the_colour_and_out_of_the_rel
     stripes = np.where((columns // 8) % 2 == 1, np.array([[1.3], [1.2], [0.9]]), np.array([[0.3], [0.4], [1.0]])).T
     layout = np.broadcast_to(stripes[None, :, :], (64, 64, 3))  # navy and ecru stripes along the columns
     albedo = shaded_texture(material, np.ones((64, 64)), layout)
-    image = np.array(mi.render(build_scene(mi, fit, 64, {"type": "direct"}, albedo_texture=albedo), spp=32, seed=1))[..., :3]
+    scene = build_scene(mi, fit, 64, {"type": "direct"}, "independent", albedo_texture=albedo)
+    image = np.array(mi.render(scene, spp=32, seed=1))[..., :3]
     write_png(tmp_path / "striped.png", linear_to_srgb(np.clip(image, 0, 1)))
     tilt, psnr = {}, {}
     for model in ("auto", "one_colour"):
@@ -192,7 +193,7 @@ def test_gradients_match_finite_differences(mi):
 
     camera = FitCamera()
     fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
-    scene = build_scene(mi, fit, 16, {"type": "direct"})
+    scene = build_scene(mi, fit, 16, {"type": "direct"}, "independent")
     params = mi.traverse(scene)
 
     def mean_pixel(key: str, value) -> object:
@@ -220,7 +221,7 @@ def test_loss_image_and_gradient_pass_take_their_own_sample_counts(mi):
 
     camera = FitCamera()
     fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
-    scene = build_scene(mi, fit, 16, {"type": "direct"})
+    scene = build_scene(mi, fit, 16, {"type": "direct"}, "independent")
     params = mi.traverse(scene)
     reference = np.array(mi.render(scene, spp=8, seed=5))
 
@@ -304,7 +305,7 @@ def render_with_gradient(mi, fit: FitScene, integrator: dict) -> tuple[np.ndarra
     """64 px render of ``fit`` and the derivative of its mean with respect to roughness."""
     import drjit as dr
 
-    scene = build_scene(mi, fit, 64, integrator)
+    scene = build_scene(mi, fit, 64, integrator, "independent")
     params = mi.traverse(scene)
     roughness = mi.Float(0.4)
     dr.enable_grad(roughness)
@@ -333,6 +334,25 @@ def test_shadows_are_missing_only_from_the_unshadowed_integrator(mi):
     direct, _ = render_with_gradient(mi, fit, {"type": "direct"})
     unshadowed, _ = render_with_gradient(mi, fit, {"type": "direct_unshadowed"})
     assert unshadowed.mean() > 1.05 * direct.mean()
+
+
+def render_noise(mi, scene, spp: int) -> float:
+    """Root mean square noise of one render at ``spp``, from two renders with different seeds."""
+    a, b = (np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64) for seed in (11, 12))
+    return float(np.sqrt(np.mean((a - b) ** 2) / 2.0))
+
+
+def test_fit_renders_stratify_the_pixel_and_stay_unbiased(mi):
+    """The fit's sampler leaves less noise than independent samples at the same count, around the same image."""
+    camera = FitCamera()
+    fit = FitScene(camera, PointLight(30, 45), plane_grid(camera, 8), 0.06, Material((0.5, 0.4, 0.3), 0.5, 0.3))
+    u = np.arange(64) * 2 * np.pi / 16
+    texture = height_to_normals_np(np.add.outer(np.sin(u), np.cos(u)).astype(np.float64)) * 0.5 + 0.5
+    ours, independent = (build_scene(mi, fit, 32, {"type": "direct"}, kind, normal_texture=texture.astype(np.float32))
+                         for kind in (NormalSettings().sampler, "independent"))
+    assert render_noise(mi, ours, 16) < 0.5 * render_noise(mi, independent, 16)
+    converged = [np.array(mi.render(scene, spp=256, seed=3)) for scene in (ours, independent)]
+    assert np.abs(converged[0] - converged[1]).mean() < 0.02 * converged[1].mean()
 
 
 def test_height_derived_normals_are_never_flipped_or_in_plane():

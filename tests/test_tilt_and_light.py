@@ -127,7 +127,7 @@ def test_geometry_pins_the_plane_it_starts_from(mi):
 def light_scene(mi, light: PointLight, resolution: int = 32):
     """A flat glossy sheet under ``light``, rendered with one bounce."""
     fit = FitScene(CAMERA, light, plane_grid(CAMERA, 16, 0.06), 0.06, Material((0.5, 0.4, 0.3), 0.5, 0.4))
-    return build_scene(mi, fit, resolution, {"type": "direct"})
+    return build_scene(mi, fit, resolution, {"type": "direct"}, "independent")
 
 
 def test_rendered_light_is_the_recorded_light(mi):

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import yaml
 from harness import ROOT, SUBSET, publish, seed_prepared, snakemake, write_sheet
 
 from clothscope.atomic import write_text, write_with
@@ -42,8 +43,11 @@ VARIANTS: dict[str, tuple[str, dict, bool]] = {
     "normals-iters-40": ("default", {"fit": {"normals": {"iterations": 40, "joint_iterations": 30}}}, False),
     "spp-1": ("default", {"fit": {"geometry": {"spp": 4}, "material": {"spp": 1}, "normals": {"spp": 1, "spp_grad": 1}}}, False),
     "spp-16": ("default", {"fit": {"geometry": {"spp": 64}, "material": {"spp": 16}, "normals": {"spp": 16, "spp_grad": 16}}}, False),
-    # the normal-map stage at 4 spp in both passes (the default before the loss image took 16 and the gradient 2)
+    # the normal-map stage at 4 spp in both passes (the sample counts before the loss image took more than the gradient)
     "normals-spp-4": ("default", {"fit": {"normals": {"spp": 4, "spp_grad": 4}}}, False),
+    # the default before the stages stratified their pixel samples (independent samples, 16 in the normal-map loss image)
+    "independent-samples": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "independent_samples.yaml").read_text()),
+                            True),
     "geometry-iters-50": ("default", {"fit": {"geometry": {"iterations": 50}}}, False),
     "geometry-res-128": ("default", {"fit": {"geometry": {"resolution": 128}}}, False),
     # effects ablation in the same report: the default preset with every stage forced to full effects

@@ -29,7 +29,10 @@ from harness import ROOT, SUBSET, publish, write_sheet
 #: variant -> overrides of the config's fit.normals
 VARIANTS: dict[str, dict] = {
     "default": {},
-    "spp-4-4": {"spp": 4, "spp_grad": 4},  # the default before the loss image took 16 samples and the gradient 2
+    "independent-16-2": {"sampler": "independent", "spp": 16},  # the default before the samples were stratified
+    "spp-16-2": {"spp": 16},
+    "spp-8-2": {"spp": 8},
+    "spp-4-4": {"spp": 4, "spp_grad": 4},  # the sample counts before the loss image took more than the gradient pass
     "spp-4-8": {"spp": 4, "spp_grad": 8},
     "spp-8-4": {"spp": 8, "spp_grad": 4},
     "spp-8-8": {"spp": 8, "spp_grad": 8},

@@ -321,6 +321,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/large_photo.py"),
         BenchmarkReport("What accuracy costs: presets and knobs", ("reports/cost_accuracy.md",), f"{py}/cost_accuracy.py"),
         BenchmarkReport("Normal-map stage knobs", ("reports/normals_sweep.md",), f"{py}/normals_sweep.py"),
+        BenchmarkReport("Render noise per sampler", ("bench/sampler_noise.md",), f"{py}/sampler_noise.py"),
         BenchmarkReport("Planned effects against the full-effects baseline",
                         ("bench/effects_all/effects_ablation.md", "bench/effects/effects_ablation.md"),
                         f"{py}/effects_ablation.py --images all --out results/bench/effects_all"),

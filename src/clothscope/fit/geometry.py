@@ -37,6 +37,7 @@ class GeometrySettings:
 
     resolution: int = 64
     spp: int = 16
+    sampler: str = "multijitter"
     iterations: int = 150
     learning_rate: float = 0.05
     vertices_per_side: int = 64
@@ -109,7 +110,7 @@ def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, se
     """
     import drjit as dr
 
-    scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), sample_border=plan.projective)
+    scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), settings.sampler, sample_border=plan.projective)
     params = mi.traverse(scene)
     steps = mi.ad.LargeSteps(params[BSDF_KEYS["vertices"]], params["cloth.faces"], settings.large_steps_lambda)
     start = mi.Float(fit.grid.reshape(-1).astype(np.float32))

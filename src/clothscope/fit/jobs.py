@@ -24,7 +24,7 @@ from .colour import choose_colour_model
 from .effects import geometry_evidence, plan_stage
 from .geometry import GeometrySettings, fit_geometry
 from .material import MaterialSettings, fit_material
-from .model import FitScene, build_scene, shaded_texture
+from .model import PREVIEW_SAMPLER, FitScene, build_scene, shaded_texture
 from .normals import ALBEDO_FILE, SHADE_FILE, NormalSettings, fit_normals, height_to_normals_np
 from .stage import (STATE_FILE, SkipStage, Target, at_resolution, load_prepared, load_state, psnr, save_state,
                     scene_xml, write_comparison, write_loss_curve)
@@ -55,7 +55,7 @@ def _run_job(out_dir: str | os.PathLike[str], stage: str, log: logging.Logger,
 def _render_fit(mi: Any, fit: FitScene, resolution: int, texture: np.ndarray | None = None,
                 albedo: np.ndarray | None = None) -> tuple[np.ndarray, Any]:
     """The fit re-rendered at ``resolution`` (linear RGB) and the scene it was rendered from."""
-    scene = build_scene(mi, fit, resolution, {"type": "direct"}, normal_texture=texture, albedo_texture=albedo)
+    scene = build_scene(mi, fit, resolution, {"type": "direct"}, PREVIEW_SAMPLER, normal_texture=texture, albedo_texture=albedo)
     return np.array(mi.render(scene, spp=PREVIEW_SPP, seed=7), dtype=np.float32)[..., :3], scene
 
 

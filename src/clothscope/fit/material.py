@@ -26,6 +26,7 @@ class MaterialSettings:
 
     resolution: int = 128
     spp: int = 4
+    sampler: str = "multijitter"
     iterations: int = 60
     learning_rate: float = 0.05
     min_roughness: float = 0.05
@@ -63,7 +64,7 @@ def apply_material(mi: ModuleType, params: Any, latents: Any, min_roughness: flo
 def fit_material(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: MaterialSettings,
                  log: logging.Logger) -> tuple[Material, Any]:
     """Fit the BSDF of ``fit`` (geometry fixed) to ``target``; returns the material and the loop result."""
-    scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), sample_border=plan.projective)
+    scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), settings.sampler, sample_border=plan.projective)
     params = mi.traverse(scene)
 
     def loss_fn(opt, it):

@@ -6,7 +6,12 @@ down at the cloth with a fixed field of view (a close-up photo). The cloth is a
 is never in view. Light model: one point light whose direction is estimated
 from the photo's low-frequency shading (:mod:`.light`) and whose intensity
 follows the calibration convention "a white Lambertian patch at the centre
-reads 0.85"; base colours are reported relative to that exposure.
+reads 0.85"; base colours are reported relative to that exposure. With a
+point light and one opaque sheet, the position of a sample inside its pixel
+is the render's only random dimension, so a sampler that stratifies it
+(``multijitter``) leaves far less noise per sample than independent sampling
+(``workflow/benchmarks/sampler_noise.py``); each stage names its sampler in
+its settings.
 """
 from __future__ import annotations
 
@@ -22,6 +27,8 @@ from .integrator import register as register_unshadowed
 
 CAMERA_DISTANCE = 3.0
 WHITE_PATCH_READING = 0.85
+#: Mitsuba sampler of the previews and of the exported ``scene.xml`` (the stages take theirs from their settings)
+PREVIEW_SAMPLER = "multijitter"
 #: principled-BSDF keys of the cloth inside the ``normalmap`` wrapper
 BSDF_KEYS = {
     "base_color": "cloth.bsdf.nested_bsdf.base_color.value",
@@ -163,10 +170,10 @@ def cloth_bsdf_dict(mi: ModuleType, material: Material, normal_texture: np.ndarr
     }
 
 
-def build_scene(mi: ModuleType, fit: FitScene, resolution: int, integrator: dict[str, Any],
+def build_scene(mi: ModuleType, fit: FitScene, resolution: int, integrator: dict[str, Any], sampler: str,
                 normal_texture: np.ndarray | None = None, sample_border: bool = False,
                 albedo_texture: np.ndarray | None = None) -> Any:
-    """Load the Mitsuba scene of a fit at ``resolution`` px with the given integrator (and a base-colour texture)."""
+    """Load the Mitsuba scene of a fit at ``resolution`` px with the given integrator and sampler (and a base-colour texture)."""
     if integrator["type"] == UNSHADOWED:
         register_unshadowed(mi)
     texture = flat_normal_texture(8) if normal_texture is None else normal_texture
@@ -182,7 +189,7 @@ def build_scene(mi: ModuleType, fit: FitScene, resolution: int, integrator: dict
             "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, fit.camera.distance], target=[0, 0, 0], up=[0, 1, 0]),
             "film": {"type": "hdrfilm", "width": resolution, "height": resolution, "pixel_format": "rgb",
                      "rfilter": {"type": "box"}, "sample_border": sample_border},
-            "sampler": {"type": "independent", "sample_count": 4},
+            "sampler": {"type": sampler, "sample_count": 4},
         },
         "light": {"type": "point", "position": list(fit.light.position),
                   "intensity": {"type": "rgb", "value": fit.light.intensity}},

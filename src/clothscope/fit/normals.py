@@ -57,8 +57,9 @@ class NormalSettings:
     """Knobs of the normal-map stage (``fit.normals`` in the config)."""
 
     resolution: int = 256
-    spp: int = 16  # samples per pixel of the image the loss compares with the photo
+    spp: int = 4  # samples per pixel of the image the loss compares with the photo
     spp_grad: int = 2  # samples per pixel of the gradient pass (0: same as spp)
+    sampler: str = "multijitter"  # Mitsuba sampler of the stage's renders
     texture: int = 256
     iterations: int = 80
     learning_rate: float = 0.05
@@ -147,8 +148,8 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     layout_np = None if colour is None else colour.layout
     textured = shaded or layout_np is not None
     layout = None if layout_np is None else tuple(mi.Float(layout_np[..., c].ravel()) for c in range(3))
-    scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), normal_texture=flat_normal_texture(size),
-                        sample_border=plan.projective,
+    scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), settings.sampler,
+                        normal_texture=flat_normal_texture(size), sample_border=plan.projective,
                         albedo_texture=shaded_texture(fit.material, np.ones((size, size)), layout_np) if textured else None)
     params = mi.traverse(scene)
     neighbours = {k: mi.UInt32(v) for k, v in neighbour_indices(size).items()}

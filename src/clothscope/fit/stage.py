@@ -15,7 +15,7 @@ import numpy as np
 from ..atomic import write_json, write_text, write_with
 from ..imageio import linear_to_srgb, read_png, write_png
 from ..prepare import CLIPPED_FILE, IMAGE_FILE, read_status, resize_channel
-from .model import FitCamera, FitScene, Material, PointLight
+from .model import PREVIEW_SAMPLER, FitCamera, FitScene, Material, PointLight
 
 STATE_FILE = "state.json"
 GRID_FILE = "grid.npy"
@@ -177,7 +177,7 @@ def scene_xml(fit: FitScene, mesh_file: str, normal_file: str | None, resolution
     <sensor type="perspective">
         <float name="fov" value="{fit.camera.fov_deg:.6g}"/>
         <transform name="to_world"><lookat origin="0, 0, {fit.camera.distance:.6g}" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
+        <sampler type="{PREVIEW_SAMPLER}"><integer name="sample_count" value="{spp}"/></sampler>
         <film type="hdrfilm"><integer name="width" value="{resolution}"/><integer name="height" value="{resolution}"/>
             <rfilter type="box"/></film>
     </sensor>
