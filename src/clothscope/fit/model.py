@@ -8,7 +8,7 @@ from the photo's low-frequency shading (:mod:`.light`) and whose intensity
 follows the calibration convention "a white Lambertian patch at the centre
 reads 0.85"; base colours are reported relative to that exposure. With a
 point light and one opaque sheet, the position of a sample inside its pixel
-is the render's only random dimension, so a sampler that stratifies it
+is a one-bounce render's only random dimension, so a sampler that stratifies it
 (``multijitter``) leaves far less noise per sample than independent sampling
 (``workflow/benchmarks/sampler_noise.py``); each stage names its sampler in
 its settings.
