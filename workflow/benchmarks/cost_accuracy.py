@@ -49,6 +49,7 @@ VARIANTS: dict[str, tuple[str, dict, bool]] = {
     "independent-samples": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "independent_samples.yaml").read_text()),
                             True),
     "geometry-iters-50": ("default", {"fit": {"geometry": {"iterations": 50}}}, False),
+    "geometry-spp-4": ("default", {"fit": {"geometry": {"spp": 4}}}, False),
     "geometry-res-128": ("default", {"fit": {"geometry": {"resolution": 128}}}, False),
     # effects ablation in the same report: the default preset with every stage forced to full effects
     "full-effects": ("default", {"fit": {"full_effects": True}}, False),
