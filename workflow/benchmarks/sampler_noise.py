@@ -28,8 +28,11 @@ from clothscope.fit.normals import ALBEDO_FILE, NormalSettings
 from clothscope.fit.stage import load_state
 from clothscope.imageio import read_exr
 from clothscope.runtime import mitsuba_for
+from clothscope.schema import load_schema
 
-SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler")
+#: the samplers a fit stage may use (``fit.normals.sampler`` in the config schema)
+SAMPLERS = tuple(load_schema(ROOT / "workflow" / "schemas" / "config.schema.yaml")
+                 ["properties"]["fit"]["properties"]["normals"]["properties"]["sampler"]["enum"])
 SAMPLE_COUNTS = (2, 4, 8, 16)
 RESOLUTION = 256
 REPEATS = 3
