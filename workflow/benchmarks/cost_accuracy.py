@@ -48,6 +48,8 @@ VARIANTS: dict[str, tuple[str, dict, bool]] = {
     # the default before the stages stratified their pixel samples (independent samples, 16 in the normal-map loss image)
     "independent-samples": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "independent_samples.yaml").read_text()),
                             True),
+    # the normal-map stage's height map in Large Steps coordinates with Uniform Adam (docs/design.md)
+    "large-steps": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "large_steps.yaml").read_text()), True),
     "geometry-iters-50": ("default", {"fit": {"geometry": {"iterations": 50}}}, False),
     "geometry-spp-4": ("default", {"fit": {"geometry": {"spp": 4}}}, False),
     "geometry-res-128": ("default", {"fit": {"geometry": {"resolution": 128}}}, False),

@@ -32,6 +32,7 @@ VARIANTS: dict[str, dict] = {
     "independent-16-2": {"sampler": "independent", "spp": 16},  # the default before the samples were stratified
     "spp-16-2": {"spp": 16},
     "spp-8-2": {"spp": 8},
+    "large-steps": yaml.safe_load((ROOT / "config" / "overlays" / "large_steps.yaml").read_text())["fit"]["normals"],
     "spp-4-4": {"spp": 4, "spp_grad": 4},  # the sample counts before the loss image took more than the gradient pass
     "spp-4-8": {"spp": 4, "spp_grad": 8},
     "spp-8-4": {"spp": 8, "spp_grad": 4},

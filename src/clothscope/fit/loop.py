@@ -39,6 +39,8 @@ class LoopSettings:
     max_restarts: int = 4
     climb_factor: float = 3.0  # loss above this times the best counts as a blow-up
     keep: str = "best"  # "best": lowest noisy loss; "last": the final iterate (see the module docstring)
+    uniform: bool = False  # Uniform Adam (Nicolet et al. 2021): one second moment, the largest, per variable
+    rates: dict[str, float] = field(default_factory=dict)  # variable -> its own learning rate, halved on restarts too
 
     def __post_init__(self) -> None:
         if self.keep not in ("best", "last"):
@@ -65,6 +67,13 @@ def _finite(values: Variables) -> bool:
     return all(np.all(np.isfinite(v)) for v in values.values())
 
 
+def adam(mi: Any, values: Variables, settings: LoopSettings, scale: float) -> Any:
+    """Adam over ``values`` with ``settings``' learning rates times ``scale``."""
+    opt = mi.ad.Adam(lr=settings.learning_rate * scale, uniform=settings.uniform, params={k: mi.Float(v) for k, v in values.items()})
+    opt.set_learning_rate({k: rate * scale for k, rate in settings.rates.items() if k in values})
+    return opt
+
+
 def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int], Any], settings: LoopSettings,
              log: logging.Logger, name: str) -> LoopResult:
     """Minimise ``loss_fn(variables, iteration)`` with Adam from ``initial``.
@@ -79,7 +88,7 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
     import drjit as dr
 
     lr = settings.learning_rate
-    opt = mi.ad.Adam(lr=lr, params={k: mi.Float(v) for k, v in initial.items()})
+    opt = adam(mi, initial, settings, 1.0)
     result = LoopResult(best={k: v.copy() for k, v in initial.items()}, best_loss=math.inf)
     restarts, since_progress, started = 0, 0, time.perf_counter()
     for it in range(settings.iterations):
@@ -94,7 +103,7 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
                 result.stopped = "gave up after restarts"
                 break
             lr /= 2
-            opt = mi.ad.Adam(lr=lr, params={k: mi.Float(v) for k, v in result.best.items()})
+            opt = adam(mi, result.best, settings, lr / settings.learning_rate)
             continue
         if value < result.best_loss * (1 - settings.min_improvement):
             since_progress = 0

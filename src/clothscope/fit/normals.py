@@ -30,6 +30,17 @@ knitted relief is smooth at the texel scale, so brightness that changes from
 one pixel to the next (sensor and JPEG noise, fibres, dark holes under a light
 near the camera) is not explained by a tilt that flips from texel to texel.
 
+With ``large_steps_lambda > 0`` the optimiser's variable is not the height
+map but its differential coordinates ``u = (I + lambda L) h`` on the texel
+grid (:mod:`.large_steps`), stepped by Uniform Adam, as the geometry stage's
+vertices are (Nicolet et al. 2021). Per-texel Adam divides each
+texel's step by its own gradient's size, so a texel the photo hardly
+constrains (a slope across the light, detail near two texels per cycle) takes
+full-size steps on noise; here one step size serves the whole map and the
+gradient is diffused over neighbours, so the relief grows from its coarse
+scales to its fine ones. The minimum is the same; the path, and so what a
+finite number of iterations returns, is not.
+
 With the ``dye_layout`` colour model (:mod:`.colour`) the base colour is also
 a texture: the fitted colour times the photo's fixed dye layout (times the
 shade, when there is one), written as ``albedo.exr`` too.
@@ -45,6 +56,7 @@ import numpy as np
 from scipy.special import expit
 
 from .colour import ColourModel
+from .large_steps import HeightSteps
 from .effects import Plan
 from .loop import LoopSettings, optimise
 from .material import apply_material, material_from_latents, material_latents
@@ -67,9 +79,11 @@ class NormalSettings:
     min_improvement: float = 0.002
     joint_iterations: int = 200
     joint_learning_rate: float = 0.02
+    joint_height_learning_rate: float = 0.02  # the height map's step in the joint phase (the BSDF's is joint_learning_rate)
     min_roughness: float = 0.05
     albedo_weight: float = 0.0  # > 0: fit a shade texture with this L1 prior weight (0: one colour)
     smoothness: float = 0.0  # weight of the curvature prior: mean squared Laplacian of the height map (texel units)
+    large_steps_lambda: float = 0.0  # > 0: the height map descends in Large Steps coordinates (I + lambda L) h, Uniform Adam
     colour_model: str = "auto"  # auto, one_colour or dye_layout (clothscope.fit.colour)
 
 
@@ -116,6 +130,11 @@ def curvature(mi: ModuleType, height: Any, neighbours: dict[str, Any]) -> Any:
     return g("left") + g("right") + g("up") + g("down") - 4.0 * height
 
 
+def height_of(steps: HeightSteps | None, latent: Any) -> Any:
+    """Differentiable flat heights of the optimiser's variable (the heights themselves when ``steps`` is None)."""
+    return latent if steps is None else steps.from_differential(latent)
+
+
 def shade_of(mi: ModuleType, latent: Any) -> Any:
     """Per-texel shade (1 at :data:`SHADE_LATENT0`) of its logistic latent."""
     return sigmoid(latent) / float(expit(SHADE_LATENT0))
@@ -155,9 +174,11 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     neighbours = {k: mi.UInt32(v) for k, v in neighbour_indices(size).items()}
     fixed = material_latents(fit.material, settings.min_roughness)
     fixed_arrays = {k: mi.Float(v) for k, v in fixed.items()}  # device copies made once, used while the BSDF is held
+    steps = HeightSteps(size, settings.large_steps_lambda) if settings.large_steps_lambda > 0 else None
 
     def loss_fn(opt, it):
-        params[BSDF_KEYS["normalmap"]] = normal_texture(mi, opt["height"], neighbours, size)
+        height = height_of(steps, opt["height"])
+        params[BSDF_KEYS["normalmap"]] = normal_texture(mi, height, neighbours, size)
         latents = {k: opt[k] if k in opt else fixed_arrays[k] for k in fixed}
         apply_material(mi, params, latents, settings.min_roughness, textured=textured)
         if textured:
@@ -165,7 +186,7 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
         params.update()
         loss = image_loss(mi, render(mi, scene, params, settings.spp, it, settings.spp_grad), target)
         if settings.smoothness > 0:
-            loss = loss + settings.smoothness * dr.mean(dr.square(curvature(mi, opt["height"], neighbours)))
+            loss = loss + settings.smoothness * dr.mean(dr.square(curvature(mi, height, neighbours)))
         if shaded:
             loss = loss + settings.albedo_weight * dr.mean(dr.abs(shade_of(mi, opt["shade"]) - 1.0))
         return loss
@@ -173,18 +194,22 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     height0 = {"height": np.zeros(size * size, dtype=np.float32)}
     if shaded:
         height0["shade"] = np.full(size * size, SHADE_LATENT0, dtype=np.float32)
+    uniform = steps is not None
     first = optimise(mi, height0, loss_fn, LoopSettings(settings.iterations, settings.learning_rate, settings.patience,
-                                                        settings.min_improvement), log, "normals")
+                                                        settings.min_improvement, uniform=uniform), log, "normals")
     joint_start = first.best | fixed
+    heights = lambda latents: (latents["height"] if steps is None else steps.solve(latents["height"])).reshape(size, size).astype(np.float64)  # noqa: E731
     if settings.joint_iterations == 0:  # BSDF kept from the material stage
-        return first.best["height"].reshape(size, size).astype(np.float64), fit.material, [first], _shade(first.best, size)
+        return heights(first.best), fit.material, [first], _shade(first.best, size)
     # the joint phase runs all its iterations and keeps the last iterate: its noisy loss flattens long before the
     # roughness stops drifting, and the lowest noisy loss would favour rough lobes (see clothscope.fit.loop)
     second = optimise(mi, joint_start, loss_fn, LoopSettings(settings.joint_iterations, settings.joint_learning_rate,
-                                                             keep="last"), log, "normals+bsdf")
+                                                             keep="last", uniform=uniform,
+                                                             rates={"height": settings.joint_height_learning_rate}),
+                     log, "normals+bsdf")
     best = second.best if second.best_loss <= first.best_loss else joint_start
     material = material_from_latents({k: best[k] for k in fixed}, settings.min_roughness)
-    return best["height"].reshape(size, size).astype(np.float64), material, [first, second], _shade(best, size)
+    return heights(best), material, [first, second], _shade(best, size)
 
 
 def _shade(latents: dict[str, np.ndarray], size: int) -> np.ndarray | None:
