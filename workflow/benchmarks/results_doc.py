@@ -311,6 +311,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Thread periods on the field set's design images (seed 20261202)", ("bench/field_set_design.md",),
                         f"{py}/field_set.py --field results/field_design/field --run results/field_design/run "
                         "--name field_set_design"),
+        BenchmarkReport("Feature sets on the design set, the held-out set and both pooled", ("bench/pooled_sets.md",),
+                        f"{py}/pooled_sets.py"),
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
         BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
