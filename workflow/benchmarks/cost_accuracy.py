@@ -51,7 +51,7 @@ VARIANTS: dict[str, tuple[str, dict, bool]] = {
     # the normal-map stage's height map in Large Steps coordinates with Uniform Adam (docs/design.md)
     "large-steps": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "large_steps.yaml").read_text()), True),
     "geometry-iters-50": ("default", {"fit": {"geometry": {"iterations": 50}}}, False),
-    "geometry-spp-4": ("default", {"fit": {"geometry": {"spp": 4}}}, False),
+    "geometry-spp-16": ("default", {"fit": {"geometry": {"spp": 16}}}, False),  # the geometry default before 2026-11-24
     "geometry-res-128": ("default", {"fit": {"geometry": {"resolution": 128}}}, False),
     # effects ablation in the same report: the default preset with every stage forced to full effects
     "full-effects": ("default", {"fit": {"full_effects": True}}, False),

@@ -36,7 +36,7 @@ class GeometrySettings:
     """Knobs of the geometry stage (``fit.geometry`` in the config)."""
 
     resolution: int = 64
-    spp: int = 16
+    spp: int = 4
     sampler: str = "multijitter"
     iterations: int = 150
     learning_rate: float = 0.05
