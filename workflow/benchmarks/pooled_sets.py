@@ -10,7 +10,7 @@ from the size of the training set rather than from the features.
     .venv/bin/python workflow/benchmarks/pooled_sets.py [--design results] [--holdout results/holdout/run]
 
 Writes ``results/bench/pooled_sets.{csv,md}``. Needs both folders'
-``features/{fitted,photo,truth}/table.parquet``. Takes about 10 minutes on 2 cores.
+``features/{fitted,photo,truth}/table.parquet``. Takes about 8 minutes on 2 cores.
 """
 from __future__ import annotations
 
