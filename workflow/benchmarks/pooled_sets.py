@@ -38,8 +38,10 @@ def read_tables(results: Path) -> dict[str, pd.DataFrame]:
 
 def pooled(design: dict[str, pd.DataFrame], holdout: dict[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
     """Both sets' tables stacked per source, the held-out ids prefixed so they stay distinct."""
-    return {source: pd.concat([design[source], holdout[source].assign(image_id=HOLDOUT_PREFIX + holdout[source]["image_id"].astype(str))],
-                              ignore_index=True) for source in SOURCES}
+    def prefixed(table: pd.DataFrame) -> pd.DataFrame:
+        return table.assign(image_id=HOLDOUT_PREFIX + table["image_id"].astype(str))
+
+    return {source: pd.concat([design[source], prefixed(holdout[source])], ignore_index=True) for source in SOURCES}
 
 
 def summary(table: pd.DataFrame, design: Path, holdout: Path) -> str:

@@ -69,7 +69,8 @@ def _finite(values: Variables) -> bool:
 
 def adam(mi: Any, values: Variables, settings: LoopSettings, scale: float) -> Any:
     """Adam over ``values`` with ``settings``' learning rates times ``scale``."""
-    opt = mi.ad.Adam(lr=settings.learning_rate * scale, uniform=settings.uniform, params={k: mi.Float(v) for k, v in values.items()})
+    opt = mi.ad.Adam(lr=settings.learning_rate * scale, uniform=settings.uniform,
+                     params={k: mi.Float(v) for k, v in values.items()})
     opt.set_learning_rate({k: rate * scale for k, rate in settings.rates.items() if k in values})
     return opt
 

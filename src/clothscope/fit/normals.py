@@ -56,8 +56,8 @@ import numpy as np
 from scipy.special import expit
 
 from .colour import ColourModel
-from .large_steps import HeightSteps
 from .effects import Plan
+from .large_steps import HeightSteps
 from .loop import LoopSettings, optimise
 from .material import apply_material, material_from_latents, material_latents
 from .model import BSDF_KEYS, FitScene, Material, build_scene, flat_normal_texture, shaded_texture
@@ -198,7 +198,8 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     first = optimise(mi, height0, loss_fn, LoopSettings(settings.iterations, settings.learning_rate, settings.patience,
                                                         settings.min_improvement, uniform=uniform), log, "normals")
     joint_start = first.best | fixed
-    heights = lambda latents: (latents["height"] if steps is None else steps.solve(latents["height"])).reshape(size, size).astype(np.float64)  # noqa: E731
+    heights = lambda latents: np.asarray(latents["height"] if steps is None else steps.solve(latents["height"]),  # noqa: E731
+                                         dtype=np.float64).reshape(size, size)
     if settings.joint_iterations == 0:  # BSDF kept from the material stage
         return heights(first.best), fit.material, [first], _shade(first.best, size)
     # the joint phase runs all its iterations and keeps the last iterate: its noisy loss flattens long before the
