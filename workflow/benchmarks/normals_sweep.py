@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import yaml
-from harness import ROOT, SUBSET, publish, write_sheet
+from harness import ROOT, SUBSET, publish, validated_config, write_sheet
 
 #: variant -> overrides of the config's fit.normals
 VARIANTS: dict[str, dict] = {
@@ -46,11 +46,7 @@ VARIANTS: dict[str, dict] = {
 
 def normal_settings(overrides: dict) -> dict:
     """The workflow's ``fit.normals`` (preset merged, schema defaults filled in, as ``common.smk`` does) with ``overrides``."""
-    from clothscope.schema import apply_preset, load_schema, validate
-
-    config = apply_preset(yaml.safe_load((ROOT / "config" / "config.yaml").read_text()), ROOT / "config" / "presets")
-    config = validate(config, load_schema(ROOT / "workflow" / "schemas" / "config.schema.yaml"), "config")
-    return config["fit"]["normals"] | overrides
+    return validated_config()["fit"]["normals"] | overrides
 
 
 def fit_one(job: tuple[str, str, dict]) -> dict:

@@ -41,13 +41,16 @@ class HeightSteps:
 
     def solve(self, u: np.ndarray) -> np.ndarray:
         """Flat heights ``(I + lambda L)^-1 u`` of flat differential coordinates ``u``."""
-        grid = np.asarray(u, dtype=np.float64).reshape(self.size, self.size)
-        return idctn(dctn(grid, norm="ortho") / self.spectrum, norm="ortho").ravel()
+        return self._in_cosine_basis(u, 1.0 / self.spectrum)
 
     def to_differential(self, height: np.ndarray) -> np.ndarray:
         """Flat differential coordinates ``(I + lambda L) h`` of flat heights ``h``."""
-        grid = np.asarray(height, dtype=np.float64).reshape(self.size, self.size)
-        return idctn(dctn(grid, norm="ortho") * self.spectrum, norm="ortho").ravel()
+        return self._in_cosine_basis(height, self.spectrum)
+
+    def _in_cosine_basis(self, values: np.ndarray, gains: np.ndarray) -> np.ndarray:
+        """Flat ``values`` with each cosine coefficient multiplied by its gain."""
+        grid = np.asarray(values, dtype=np.float64).reshape(self.size, self.size)
+        return idctn(dctn(grid, norm="ortho") * gains, norm="ortho").ravel()
 
     def from_differential(self, u: Any) -> Any:
         """Differentiable heights of a Dr.Jit array of differential coordinates."""

@@ -67,10 +67,10 @@ def _finite(values: Variables) -> bool:
     return all(np.all(np.isfinite(v)) for v in values.values())
 
 
-def adam(mi: Any, values: Variables, settings: LoopSettings, scale: float) -> Any:
-    """Adam over ``values`` with ``settings``' learning rates times ``scale``."""
-    opt = mi.ad.Adam(lr=settings.learning_rate * scale, uniform=settings.uniform,
-                     params={k: mi.Float(v) for k, v in values.items()})
+def adam(mi: Any, values: Variables, settings: LoopSettings, lr: float) -> Any:
+    """Adam over ``values`` at step ``lr``; each variable of ``settings.rates`` at its rate, scaled alike."""
+    scale = lr / settings.learning_rate
+    opt = mi.ad.Adam(lr=lr, uniform=settings.uniform, params={k: mi.Float(v) for k, v in values.items()})
     opt.set_learning_rate({k: rate * scale for k, rate in settings.rates.items() if k in values})
     return opt
 
@@ -89,7 +89,7 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
     import drjit as dr
 
     lr = settings.learning_rate
-    opt = adam(mi, initial, settings, 1.0)
+    opt = adam(mi, initial, settings, lr)
     result = LoopResult(best={k: v.copy() for k, v in initial.items()}, best_loss=math.inf)
     restarts, since_progress, started = 0, 0, time.perf_counter()
     for it in range(settings.iterations):
@@ -104,7 +104,7 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
                 result.stopped = "gave up after restarts"
                 break
             lr /= 2
-            opt = adam(mi, result.best, settings, lr / settings.learning_rate)
+            opt = adam(mi, result.best, settings, lr)
             continue
         if value < result.best_loss * (1 - settings.min_improvement):
             since_progress = 0
