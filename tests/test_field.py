@@ -7,12 +7,13 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from conftest import non_finite_outputs
+from conftest import SCHEMAS, non_finite_outputs
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
 from clothscope.imageio import decode_image
+from clothscope.schema import load_schema
 from clothscope.synth.fabrics import TWILL21, TWILL31
 from clothscope.synth.field import (CAPTURES, FIELD_FABRICS, FOOTPRINT_HALF, FieldHeight, draw_field, field_index,
                                     field_rng, footprint_half_width, save_field, synthesize_field)
@@ -24,6 +25,15 @@ def test_draws_are_reproducible_and_independent():
     assert first == draw_field("twill", field_rng(3, "twill", 0))
     assert first != draw_field("twill", field_rng(3, "twill", 1))
     assert first != draw_field("twill", field_rng(4, "twill", 0))
+
+
+def test_a_subset_of_classes_indexes_the_same_images_and_the_schema_knows_every_class():
+    subset = field_index(4, ["satin", "broadcloth"])
+    assert subset == [entry for entry in field_index(4) if entry[0] in ("broadcloth", "satin")]
+    with pytest.raises(ValueError, match="unknown field class 'denim'"):
+        field_index(2, ["twill", "denim"])
+    schema = load_schema(SCHEMAS / "config.schema.yaml")["properties"]["synthesize"]["properties"]["field"]["properties"]["classes"]
+    assert schema["items"]["enum"] == list(FIELD_FABRICS)
 
 
 def test_index_covers_nine_classes_and_draws_stay_in_their_ranges():

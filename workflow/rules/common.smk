@@ -35,7 +35,10 @@ IMAGE_IDS = list(SAMPLES["image_id"])
 #: rules that can use a GPU ask for one only when the CUDA variant is forced
 GPUS = 1 if config["variant"] == "cuda_ad_rgb" else 0
 SYNTHETIC = dataset_index(config["synthesize"]["colors_per_class"])
-FIELD = field_index(config["synthesize"]["field"]["images_per_class"])
+FIELD = field_index(
+    config["synthesize"]["field"]["images_per_class"],
+    config["synthesize"]["field"]["classes"],
+)
 
 
 wildcard_constraints:

@@ -100,9 +100,22 @@ class FieldDraw:
     jpeg_quality: int
 
 
-def field_index(images_per_class: int) -> list[tuple[str, int, str]]:
-    """(fabric class, image number, image id) of every image of the field set."""
-    return [(fabric, k, f"{fabric}_{k:02d}") for fabric in FIELD_FABRICS for k in range(images_per_class)]
+def field_index(images_per_class: int, classes: list[str] | None = None) -> list[tuple[str, int, str]]:
+    """(fabric class, image number, image id) of every image of the field set, or of its ``classes`` only.
+
+    An image depends on its class and number only (:func:`field_rng`), so a subset of
+    classes renders the same images as the whole set does.
+
+    Raises
+    ------
+    ValueError
+        On a class the field set does not know.
+    """
+    chosen = list(FIELD_FABRICS) if not classes else list(classes)
+    unknown = [c for c in chosen if c not in FIELD_FABRICS]
+    if unknown:
+        raise ValueError(f"unknown field class {', '.join(map(repr, unknown))}; known: {', '.join(FIELD_FABRICS)}")
+    return [(fabric, k, f"{fabric}_{k:02d}") for fabric in FIELD_FABRICS if fabric in chosen for k in range(images_per_class)]
 
 
 def field_rng(seed: int, fabric: str, number: int) -> np.random.Generator:
