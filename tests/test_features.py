@@ -15,7 +15,7 @@ import yaml
 from conftest import ROOT, SCHEMAS, SYNTHETIC, job_counts, non_finite_outputs, run_snakemake
 
 from clothscope.features import (EXTRA_COLUMNS, concat_rows, config_hash, feature_row, feature_schema, features_job,
-                                 load_fitted, load_truth, paper_feature_columns, unusable_row, write_rows)
+                                 lit_normals, load_fitted, load_truth, paper_feature_columns, unusable_row, write_rows)
 from clothscope.imageio import read_png, write_exr
 from clothscope.qda_model import load_model
 from clothscope.schema import load_schema, validate
@@ -124,15 +124,35 @@ def test_truth_and_fitted_loaders(tmp_path):
     normals = noisy_map(32)
     write_exr(folder / "normal.exr", normals)
     write_exr(folder / "height.exr", np.repeat(relief(normals)[..., None], 3, axis=2).astype(np.float32))
-    (folder / "state.json").write_text(json.dumps({"status": "fitted", "material": {"base_color": [0.5, 0.5, 0.5], "specular": 0.4,
-                                                  "roughness": 0.6}, "texels_per_pixel": 0.94, "runtime": {"mitsuba_variant": "llvm_ad_rgb"}}))
-    fitted = load_fitted(folder)
+    state = {"status": "fitted", "material": {"base_color": [0.5, 0.5, 0.5], "specular": 0.4, "roughness": 0.6},
+             "texels_per_pixel": 0.94, "runtime": {"mitsuba_variant": "llvm_ad_rgb"}, "scene": {"light": {"position": [0.0, 3.0, 4.0]}}}
+    (folder / "state.json").write_text(json.dumps(state))
+    fitted = load_fitted(folder, "relief")
     assert fitted.status == "ok" and fitted.mitsuba_variant == "llvm_ad_rgb" and fitted.texels_per_pixel == 0.94
     assert np.array_equal(fitted.normals, normals) and fitted.normals.min() < 0
     assert np.allclose(fitted.field, relief(normals))
+    lit = load_fitted(folder, "shading")
+    assert np.array_equal(lit.normals, normals)
+    assert np.allclose(lit.field, np.clip(normals[..., 1] * 0.6 + normals[..., 2] * 0.8, 0, None))
+    with pytest.raises(ValueError, match="fitted field must be one of relief, shading"):
+        load_fitted(folder, "height")
+    (folder / "state.json").write_text(json.dumps({**state, "scene": {}}))
+    unlit = load_fitted(folder, "shading")
+    assert unlit.status == "failed" and "KeyError" in unlit.reason and unlit.field is None
     (folder / "state.json").write_text(json.dumps({"status": "skipped", "reason": "prepare: rejected"}))
-    skipped = load_fitted(folder)
+    skipped = load_fitted(folder, "relief")
     assert skipped.status == "skipped" and skipped.reason == "prepare: rejected"
+
+
+@pytest.mark.parametrize("position", [[0.0, 0.0, 0.0], [0.0, float("nan"), 1.0], [1.0, 2.0]])
+def test_lit_normals_rejects_a_light_without_a_direction(position):
+    with pytest.raises(ValueError, match="light position must be three finite numbers"):
+        lit_normals(np.dstack([np.zeros((4, 4)), np.zeros((4, 4)), np.ones((4, 4))]), position)
+
+
+def test_lit_normals_faces_the_light_and_clips_the_back():
+    normals = np.array([[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]])
+    assert np.allclose(lit_normals(normals, [3.0, 0.0, 3.0]), [[np.sqrt(0.5), np.sqrt(0.5), 0.0]])
 
 
 def test_features_job_writes_row_and_plot_for_missing_truth(tmp_path):
@@ -162,7 +182,7 @@ def test_features_and_classify_config_keys_are_commented_with_defaults():
     assert config["features"] == defaults["features"] and config["classify"] == defaults["classify"]
     assert defaults["features"]["normal_source"] == "fitted" and defaults["features"]["extras"] is False
     assert SpectrumSettings(**{k: v for k, v in defaults["features"].items()
-                               if k not in ("normal_source", "extras", "structure")}) == SETTINGS
+                               if k not in ("normal_source", "extras", "structure", "fitted_field")}) == SETTINGS
     text = (ROOT / "config/config.yaml").read_text().splitlines()
     keys = [*schema["properties"]["features"]["properties"], *schema["properties"]["classify"]["properties"],
             *schema["properties"]["classify"]["properties"]["sweep"]["properties"],

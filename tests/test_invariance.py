@@ -16,11 +16,12 @@ from functools import lru_cache
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import SYNTHETIC
+from conftest import SCHEMAS, SYNTHETIC
 
 from clothscope.classify import loocv, make_qda
 from clothscope.imageio import read_png
 from clothscope.invariance import prediction_change_rate, rotate_map, rotated_crop_size, zoom_map
+from clothscope.schema import load_schema, validate
 from clothscope.spectrum import SpectrumSettings, analyse_normal_map
 from clothscope.synth.generate import decode_normal
 
@@ -201,6 +202,7 @@ def test_refitted_thread_structure_survives_recolouring_rotation_and_zoom(tmp_pa
     from clothscope.structure import StructureSettings, structure_features
 
     settings = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3)
+    field = validate({}, load_schema(SCHEMAS / "config.schema.yaml"), "config")["features"]["fitted_field"]
     common = dict(variant="llvm_ad_rgb", threads=2, full_effects=False, log=logging.getLogger("test_invariance"))
 
     def refit(photo, out):
@@ -210,7 +212,7 @@ def test_refitted_thread_structure_survives_recolouring_rotation_and_zoom(tmp_pa
                           MaterialSettings(resolution=64, spp=2, iterations=10), **common)
         jobs.normals_job(str(out / "prepared"), str(out / "material"), str(out / "normals"),
                          NormalSettings(resolution=128, spp=4, spp_grad=2, texture=128, iterations=30, joint_iterations=20), **common)
-        return structure_features(load_fitted(out / "normals").field, settings)
+        return structure_features(load_fitted(out / "normals", field).field, settings)
 
     photo = SYNTHETIC / "canvas" / "canvas_red.png"
     base, base_diag = refit(photo, tmp_path / "original")
@@ -223,6 +225,6 @@ def test_refitted_thread_structure_survives_recolouring_rotation_and_zoom(tmp_pa
         assert diag["lattice"], name
         assert diag["period_px"] == pytest.approx(base_diag["period_px"] * scale, rel=0.08), name
         assert all(np.isfinite(v) for v in features.values())
-    recoloured, _ = structure_features(load_fitted(tmp_path / "hue120" / "normals").field, settings)
+    recoloured, _ = structure_features(load_fitted(tmp_path / "hue120" / "normals", field).field, settings)
     profile = [k for k in recoloured if k.startswith("s_prof")]
     assert np.abs([recoloured[k] - base[k] for k in profile]).max() < 0.1

@@ -33,7 +33,7 @@ def _describe(field: np.ndarray, settings: StructureSettings) -> dict[str, Any]:
 
 def compare_image(image_id: str, fabric_class: str, image_path: str, fit_dir: str, settings: StructureSettings) -> dict[str, Any] | None:
     """One image's true and fitted structure (with and without the border dropped); None when either is unusable."""
-    truth, fitted = load_truth(image_path), load_fitted(fit_dir)
+    truth, fitted = load_truth(image_path), load_fitted(fit_dir, "relief")  # relief against the true relief
     if truth.field is None or fitted.field is None:
         return None
     t = _describe(truth.field, settings)

@@ -85,10 +85,10 @@ class FeatureSet:
 
 FEATURE_SETS = (
     FeatureSet("paper_fitted", "the paper's features (Algorithm 2 + BRDF) on fitted normal maps", (("fitted", "paper"),)),
-    FeatureSet("structure_fitted", "structure descriptor of the fitted relief", (("fitted", "structure"),)),
-    FeatureSet("structure_brdf_fitted", "structure descriptor of the fitted relief + fitted BRDF",
+    FeatureSet("structure_fitted", "structure descriptor of the fitted map (features.fitted_field)", (("fitted", "structure"),)),
+    FeatureSet("structure_brdf_fitted", "structure descriptor of the fitted map + fitted BRDF",
                (("fitted", "structure_brdf"),)),
-    FeatureSet("texture_brdf_fitted", "structure descriptor and LBP of the fitted relief + fitted BRDF",
+    FeatureSet("texture_brdf_fitted", "structure descriptor and LBP of the fitted map + fitted BRDF",
                (("fitted", "texture_brdf"),)),
     FeatureSet("paper_photo", "Algorithm 2 on the photo's grey levels", (("photo", "paper"),)),
     FeatureSet("structure_photo", "structure descriptor of the photo's luminance", (("photo", "structure"),)),

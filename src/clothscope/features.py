@@ -2,16 +2,17 @@
 
 One row per sample-sheet image and *source*. A source gives a 2-D map for
 the paper's Algorithm 2 (a normal map, or a grey-level image), a scalar field
-for the thread-structure descriptor (:mod:`clothscope.structure`: a relief, or
-a luminance) and, where there is one, the BSDF:
+for the thread-structure descriptor (:mod:`clothscope.structure`: a relief, a
+shading or a luminance) and, where there is one, the BSDF:
 
 * ``fitted``: the inverse renderer's output, ``results/fit/<id>/normals/``
   (``state.json``: status, ``material`` {base_color, specular, roughness},
   ``texels_per_pixel``, ``runtime.mitsuba_variant``; ``normal.exr``: float32
   unit normals, read raw through Mitsuba's Bitmap, *not* through
   :func:`clothscope.imageio.decode_exr`, which clamps negative values to 0
-  as it is meant for radiance; ``height.exr``, the height map the normals are derived from, which is
-  the field of the structure descriptor;
+  as it is meant for radiance; ``height.exr``, the height map the normals are derived from); the
+  structure descriptor reads the height map or the normals lit by the fitted light
+  (``features.fitted_field``, :func:`lit_normals`);
 * ``truth``: the ground truth beside a synthetic image
   (:func:`clothscope.synth.generate.truth_paths`: ``<stem>.truth-normal.png``,
   ``<stem>.truth-height.png`` and ``<stem>.truth.json``), which needs no fitting;
@@ -74,6 +75,8 @@ from .structure import (LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS, Structure
 
 #: Where the maps come from: synthetic ground truth, the inverse renderer, or the photo alone.
 NORMAL_SOURCES = ("truth", "fitted", "photo")
+#: What the structure descriptor reads on fitted maps (``features.fitted_field``): the height map, or the normal map lit by the fitted light.
+FITTED_FIELDS = ("relief", "shading")
 #: Status of a usable row.
 STATUS_OK = "ok"
 #: Keys of the ``features:`` config section that are SpectrumSettings fields.
@@ -225,7 +228,7 @@ def feature_row(image_id: str, fabric_class: str | None, normals: np.ndarray, fi
     normals
         (N, N, 3) tangent-space unit normals (or an (N, N) z map).
     field
-        (H, W) scalar field of the structure descriptor (relief or luminance).
+        (H, W) scalar field of the structure descriptor (relief, shading or luminance).
     roughness, specular
         The BSDF's roughness and scalar specular *s* (``specular_norm = sqrt(3) * s``).
     settings
@@ -269,7 +272,7 @@ class NormalInput:
     """An image's maps and BSDF parameters from one source, or why there are none.
 
     ``normals`` is what Algorithm 2 reads (normals or a grey-level map),
-    ``field`` what the structure descriptor reads (a relief or a luminance).
+    ``field`` what the structure descriptor reads (a relief, a shading or a luminance).
     """
 
     normals: np.ndarray | None
@@ -325,8 +328,29 @@ def _read_three_channels(path: Path) -> np.ndarray:
     return data[..., :3]
 
 
-def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
-    """The fit_normals output of one image: ``state.json``, ``normal.exr``, ``height.exr`` and any ``shade.exr``."""
+def lit_normals(normals: np.ndarray, light_position: Any) -> np.ndarray:
+    """Lambert shading ``max(n . l, 0)`` of (H, W, 3) tangent-space normals under a distant light toward ``light_position``.
+
+    Raises
+    ------
+    ValueError
+        When the light position is not three finite numbers away from the origin.
+    """
+    position = np.asarray(light_position, dtype=np.float64)
+    if position.shape != (3,) or not np.all(np.isfinite(position)) or np.linalg.norm(position) <= 0:
+        raise ValueError(f"light position must be three finite numbers, not all zero; got {light_position!r}")
+    return np.clip(np.asarray(normals, dtype=np.float64) @ (position / np.linalg.norm(position)), 0.0, None)
+
+
+def load_fitted(normals_dir: str | os.PathLike[str], field: str) -> NormalInput:
+    """The fit_normals output of one image: ``state.json``, ``normal.exr``, ``height.exr`` and any ``shade.exr``.
+
+    ``field`` (:data:`FITTED_FIELDS`) is what the structure descriptor will read:
+    ``relief``, the height map, or ``shading``, the normal map lit by the
+    fitted light (:func:`lit_normals`; the light of ``state.json``).
+    """
+    if field not in FITTED_FIELDS:
+        raise ValueError(f"fitted field must be one of {', '.join(FITTED_FIELDS)}, got {field!r}")
     folder = Path(normals_dir)
     state = _read_record(folder / "state.json", "")
     if isinstance(state, NormalInput):
@@ -343,7 +367,8 @@ def load_fitted(normals_dir: str | os.PathLike[str]) -> NormalInput:
         shade = read_exr(folder / SHADE_FILE)[..., 0].astype(np.float64) if (folder / SHADE_FILE).is_file() else None
         if not all(np.all(np.isfinite(a)) for a in (normals, height, 0.0 if shade is None else shade)):
             raise ValueError(f"normal.exr, height.exr or {SHADE_FILE} holds non-finite values")
-        return NormalInput(normals, height, _finite(material["roughness"], "roughness"), _finite(material["specular"], "specular"),
+        described = height if field == "relief" else lit_normals(normals, state["scene"]["light"]["position"])
+        return NormalInput(normals, described, _finite(material["roughness"], "roughness"), _finite(material["specular"], "specular"),
                            STATUS_OK, "", variant, _finite(state.get("texels_per_pixel", 1.0), "texels_per_pixel"), shade)
     except (OSError, RuntimeError, ValueError, KeyError, TypeError) as err:
         return _unusable("failed", f"{folder}: {type(err).__name__}: {err}", variant)
@@ -366,15 +391,16 @@ def load_photo(prepared_dir: str | os.PathLike[str]) -> NormalInput:
         return _unusable("failed", f"{folder}: {type(err).__name__}: {err}", "photo")
 
 
-def load_normal_input(source: str, image_path: str | os.PathLike[str], source_dir: str | os.PathLike[str] | None) -> NormalInput:
-    """:func:`load_truth`, :func:`load_fitted` (``source_dir``: fit_normals folder) or :func:`load_photo`
-    (``source_dir``: prepared folder), by ``source``."""
+def load_normal_input(source: str, image_path: str | os.PathLike[str], source_dir: str | os.PathLike[str] | None,
+                      fitted_field: str) -> NormalInput:
+    """:func:`load_truth`, :func:`load_fitted` (``source_dir``: fit_normals folder; ``fitted_field``: what its
+    descriptor reads) or :func:`load_photo` (``source_dir``: prepared folder), by ``source``."""
     if source == "truth":
         return load_truth(image_path)
     if source in ("fitted", "photo"):
         if source_dir is None:
             raise ValueError(f"the {source} source needs its input folder")
-        return load_fitted(source_dir) if source == "fitted" else load_photo(source_dir)
+        return load_fitted(source_dir, fitted_field) if source == "fitted" else load_photo(source_dir)
     raise ValueError(f"normal source must be one of {', '.join(NORMAL_SOURCES)}, got {source!r}")
 
 
@@ -440,7 +466,7 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
     structure = structure_settings(features_config)
     extras = bool(features_config.get("extras", False))
     schema = feature_schema(settings.n_peaks, extras)
-    loaded = load_normal_input(source, image_path, source_dir)
+    loaded = load_normal_input(source, image_path, source_dir, features_config["fitted_field"])
     provenance = {"normal_source": source, "mitsuba_variant": loaded.mitsuba_variant or "unknown",
                   "config_hash": config_hash(features_config, source), "texels_per_pixel": loaded.texels_per_pixel}
     title = f"{image_id} ({fabric_class or 'query'}, {source} {'luminance' if source == 'photo' else 'normals'})"

@@ -1,4 +1,4 @@
-"""Thread-structure descriptor of a scalar field: a fitted relief, a true relief or a photo's luminance.
+"""Thread-structure descriptor of a scalar field: a fitted relief or shading, a true relief or a photo's luminance.
 
 The paper's features (:mod:`clothscope.spectrum`) keep two peak radii and
 heights of the normal map's z spectrum. This module describes the *lattice*
@@ -309,7 +309,7 @@ def structure_features(field: np.ndarray, settings: StructureSettings) -> tuple[
     Parameters
     ----------
     field
-        2-D relief (height map) or luminance, any real values.
+        2-D relief (height map), shading or luminance, any real values.
     settings
         Analysis window and peak test.
 

@@ -298,7 +298,7 @@ def load_maps(table_path: str | os.PathLike[str], source: str, images: dict[str,
     loaded = {}
     for image_id in wanted["image_id"].astype(str):
         entry = images[image_id]
-        loaded[image_id] = load_normal_input(source, entry["path"], entry.get("fit_dir"))
+        loaded[image_id] = load_normal_input(source, entry["path"], entry.get("fit_dir"), "relief")  # Algorithm 2 reads the normals only
     return usable_maps(table, loaded)
 
 

@@ -21,7 +21,7 @@ import warnings
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, publish
+from harness import ROOT, publish, validated_config
 
 from clothscope.feature_sets import FEATURE_SETS, common_images, score_feature_set
 from clothscope.features import load_fitted, load_photo
@@ -37,7 +37,9 @@ SETS = ("structure_fitted", "structure_brdf_fitted", "structure_photo", "fitted_
 def load_fields(results: Path) -> dict[str, dict[str, object]]:
     """Each source's table and every usable image's field, from one results folder."""
     out = {}
-    for source, loader, folder in (("fitted", load_fitted, "fit/{}/normals"), ("photo", load_photo, "prepared/{}")):
+    fitted_field = validated_config()["features"]["fitted_field"]
+    fitted = lambda folder: load_fitted(folder, fitted_field)  # noqa: E731
+    for source, loader, folder in (("fitted", fitted, "fit/{}/normals"), ("photo", load_photo, "prepared/{}")):
         table = pd.read_parquet(results / "features" / source / "table.parquet")
         fields = {}
         for image in table.loc[table["status"] == "ok", "image_id"]:
