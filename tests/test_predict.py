@@ -13,7 +13,7 @@ from clothscope.cli import main
 from clothscope.classify import train_model
 from clothscope.feature_sets import classifier_candidates, joined_table
 from clothscope.features import features_job
-from clothscope.predict import model_sources, unique_ids
+from clothscope.predict import model_sources, training_settings, unique_ids
 from clothscope.prepare import PrepareSettings, prepare_image
 from clothscope.qda_model import load_model, save_model
 from clothscope.schema import apply_preset, load_schema, validate
@@ -87,6 +87,13 @@ def test_model_sources_puts_the_models_own_source_first(photo_model):
     model.feature_columns = ["photo.s_a", "fitted.s_a"]
     model.metadata["metadata"]["normal_source"] = "fitted"
     assert model_sources(model) == ["fitted", "photo"]
+
+
+def test_a_model_recorded_before_fitted_field_reads_the_relief(photo_model):
+    model = load_model(photo_model)
+    assert training_settings(model)["features"]["fitted_field"] == "relief"
+    del model.metadata["metadata"]["settings"]["features"]["fitted_field"]
+    assert training_settings(model)["features"]["fitted_field"] == "relief"
 
 
 def test_unique_ids_are_safe_and_distinct():

@@ -55,7 +55,9 @@ def training_settings(model: QdaModel) -> dict[str, Any]:
     settings = model.metadata.get("metadata", {}).get("settings")
     if not isinstance(settings, dict) or not {"prepare", "fit", "features", "variant"} <= set(settings):
         raise ValueError("model record lacks the settings its images were processed with; retrain it with the workflow")
-    return settings
+    features = dict(settings["features"])
+    features.setdefault("fitted_field", "relief")  # what models recorded before the key existed read
+    return {**settings, "features": features}
 
 
 def unique_ids(photos: list[str]) -> list[str]:
