@@ -110,6 +110,8 @@ def test_config_hash_tracks_settings_and_source_not_the_switch():
     assert config_hash(base, "truth") == config_hash({**base, "normal_source": "truth"}, "truth")
     assert config_hash(base, "truth") != config_hash(base, "fitted")
     assert config_hash(base, "truth") != config_hash({**base, "alpha": 3.0}, "truth")
+    assert config_hash(base, "photo") == config_hash({**base, "fitted_field": "shading"}, "photo")
+    assert config_hash(base, "fitted") != config_hash({**base, "fitted_field": "shading"}, "fitted")
 
 
 def test_truth_and_fitted_loaders(tmp_path):

@@ -116,14 +116,18 @@ def structure_settings(features_config: dict[str, Any]) -> StructureSettings:
     return StructureSettings(**features_config["structure"])
 
 
-def row_settings(features_config: dict[str, Any]) -> dict[str, Any]:
-    """The part of a ``features:`` section that changes a row (everything but ``normal_source``)."""
-    return {k: v for k, v in sorted(features_config.items()) if k != "normal_source"}
+def row_settings(features_config: dict[str, Any], source: str | None = None) -> dict[str, Any]:
+    """The part of a ``features:`` section that changes a row of ``source`` (of any source when None).
+
+    Everything but ``normal_source``; ``fitted_field`` only for the ``fitted`` source.
+    """
+    skipped = {"normal_source"} if source in (None, "fitted") else {"normal_source", "fitted_field"}
+    return {k: v for k, v in sorted(features_config.items()) if k not in skipped}
 
 
 def config_hash(features_config: dict[str, Any], source: str) -> str:
     """12 hex digits identifying the feature settings and the normal source of a row."""
-    payload = json.dumps({"features": row_settings(features_config), "normal_source": source}, sort_keys=True, default=str)
+    payload = json.dumps({"features": row_settings(features_config, source), "normal_source": source}, sort_keys=True, default=str)
     return hashlib.sha256(payload.encode("utf-8")).hexdigest()[:12]
 
 
@@ -392,7 +396,7 @@ def load_photo(prepared_dir: str | os.PathLike[str]) -> NormalInput:
 
 
 def load_normal_input(source: str, image_path: str | os.PathLike[str], source_dir: str | os.PathLike[str] | None,
-                      fitted_field: str) -> NormalInput:
+                      fitted_field: str | None) -> NormalInput:
     """:func:`load_truth`, :func:`load_fitted` (``source_dir``: fit_normals folder; ``fitted_field``: what its
     descriptor reads) or :func:`load_photo` (``source_dir``: prepared folder), by ``source``."""
     if source == "truth":
@@ -466,7 +470,7 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
     structure = structure_settings(features_config)
     extras = bool(features_config.get("extras", False))
     schema = feature_schema(settings.n_peaks, extras)
-    loaded = load_normal_input(source, image_path, source_dir, features_config["fitted_field"])
+    loaded = load_normal_input(source, image_path, source_dir, features_config.get("fitted_field"))
     provenance = {"normal_source": source, "mitsuba_variant": loaded.mitsuba_variant or "unknown",
                   "config_hash": config_hash(features_config, source), "texels_per_pixel": loaded.texels_per_pixel}
     title = f"{image_id} ({fabric_class or 'query'}, {source} {'luminance' if source == 'photo' else 'normals'})"

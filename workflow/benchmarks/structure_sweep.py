@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import warnings
+from functools import partial
 from pathlib import Path
 
 import pandas as pd
@@ -37,8 +38,7 @@ SETS = ("structure_fitted", "structure_brdf_fitted", "structure_photo", "fitted_
 def load_fields(results: Path) -> dict[str, dict[str, object]]:
     """Each source's table and every usable image's field, from one results folder."""
     out = {}
-    fitted_field = validated_config()["features"]["fitted_field"]
-    fitted = lambda folder: load_fitted(folder, fitted_field)  # noqa: E731
+    fitted = partial(load_fitted, field=validated_config()["features"]["fitted_field"])
     for source, loader, folder in (("fitted", fitted, "fit/{}/normals"), ("photo", load_photo, "prepared/{}")):
         table = pd.read_parquet(results / "features" / source / "table.parquet")
         fields = {}

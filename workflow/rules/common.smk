@@ -105,6 +105,11 @@ if "table" in IMAGE_IDS:
 FEATURE_SETTINGS = row_settings(config["features"])
 
 
+def source_feature_settings(wildcards):
+    """The feature settings a row of {source} depends on (fitted_field only for fitted rows)."""
+    return row_settings(config["features"], wildcards.source)
+
+
 def features_path(source, name):
     return os.path.join(RESULTS, "features", source, name)
 

@@ -29,7 +29,7 @@ rule features:
         mem_mb=1500,
         runtime=5,
     params:
-        settings=FEATURE_SETTINGS,
+        settings=source_feature_settings,
         fabric_class=lambda wildcards: SAMPLES.loc[wildcards.image, "fabric_class"],
         path=sheet_path,
     script:
