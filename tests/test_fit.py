@@ -14,7 +14,7 @@ from clothscope.fit.geometry import GeometrySettings
 from clothscope.fit.loop import LoopSettings, optimise
 from clothscope.fit.material import MaterialSettings
 from clothscope.fit.model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
-from clothscope.fit.normals import NormalSettings, height_to_normals_np
+from clothscope.fit.normals import NormalSettings, height_to_normals_np, initial_height
 from clothscope.imageio import linear_to_srgb, read_exr, write_png
 from clothscope.prepare import PrepareSettings, prepare_image
 from clothscope.runtime import mitsuba_for
@@ -362,6 +362,25 @@ def test_height_derived_normals_are_never_flipped_or_in_plane():
         assert np.all(np.isfinite(normals)) and normals[..., 2].min() > 0.0
 
 
+def test_shading_start_is_bright_high_dark_low_at_the_asked_slope():
+    """initial_height: yarn crowns (bright) start high, gaps (dark) low, at the asked RMS slope; finite."""
+    rows, cols = np.mgrid[0:64, 0:64]
+    crowns = 0.5 + 0.3 * np.sin(2 * np.pi * cols / 8.0)  # stripes of period 8 px
+    photo = np.repeat(crowns[..., None], 3, axis=2) * np.array([0.8, 0.3, 0.2])  # one dye
+    height = initial_height(photo, 64, 0.0, 0.3).reshape(64, 64)
+    assert np.all(np.isfinite(height))
+    inner = height[8:-8, 8:-8]
+    assert np.corrcoef(inner.ravel(), crowns[8:-8, 8:-8].ravel())[0, 1] > 0.95
+    gy, gx = np.gradient(height)
+    assert math.isclose(float(np.sqrt(np.mean(gx**2 + gy**2))), 0.3, rel_tol=1e-3)
+
+
+@pytest.mark.parametrize("photo", [np.zeros((32, 32, 3)), np.full((32, 32, 3), 0.4)], ids=["black", "uniform"])
+def test_shading_start_of_a_photo_without_contrast_is_flat(photo):
+    height = initial_height(photo, 48, 0.06, 0.3)
+    assert height.shape == (48 * 48,) and np.all(height == 0.0)
+
+
 @pytest.mark.parametrize("pin_tilt", [True, False])
 def test_pinned_depth_removes_mean_and_tilt_alike_in_numpy_and_drjit(mi, pin_tilt):
     import drjit as dr
@@ -417,6 +436,24 @@ def test_smoothness_prior_lowers_the_fitted_relief_curvature(tmp_path):
         assert_all_finite(state, folder)
         curvatures[weight] = fitted_relief_curvature(folder)
     assert curvatures[0.01] < 0.5 * curvatures[0.0]
+
+
+def test_shading_start_puts_the_photo_pattern_into_the_height_map_the_fit_starts_from(tmp_path):
+    """initial_relief = shading: with no iterations the fitted relief is the start, the photo's high-passed shading."""
+    photo = SYNTHETIC / "canvas" / "canvas_red.png"
+    reliefs = {}
+    for start in ("flat", "shading"):
+        settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=0, joint_iterations=0, initial_relief=start)
+        state = run_tiny_fit(photo, tmp_path / start, normals=settings)
+        folder = tmp_path / start / "fit" / "normals"
+        assert state["status"] == "fitted" and state["settings"]["initial_relief"] == start
+        assert_all_finite(state, folder)
+        reliefs[start] = read_exr(folder / "height.exr")[..., 0]
+    assert np.all(reliefs["flat"] == 0.0)
+    target = read_exr(tmp_path / "shading" / "prepared" / "image.exr")[..., :3]
+    expected = initial_height(target, 64, 0.06, 0.3).reshape(64, 64)
+    assert np.allclose(reliefs["shading"], expected, atol=1e-5)
+    assert reliefs["shading"].std() > 0.1
 
 
 def test_large_steps_solve_is_the_inverse_of_i_plus_lambda_laplacian_and_its_own_adjoint(mi):

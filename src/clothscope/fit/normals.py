@@ -41,6 +41,11 @@ gradient is diffused over neighbours, so the relief grows from its coarse
 scales to its fine ones. The minimum is the same; the path, and so what a
 finite number of iterations returns, is not.
 
+With ``initial_relief = "shading"`` the height map starts from the photo's
+shading instead of flat (:func:`initial_height`): bright high, dark low, the
+dye layout divided out, so what the photo does not constrain starts as the
+photo's own pattern instead of as zero.
+
 With the ``dye_layout`` colour model (:mod:`.colour`) the base colour is also
 a texture: the fitted colour times the photo's fixed dye layout (times the
 shade, when there is one), written as ``albedo.exr`` too.
@@ -53,8 +58,10 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
 from scipy.special import expit
 
+from ..shading import shading
 from .colour import ColourModel
 from .effects import Plan
 from .large_steps import HeightSteps
@@ -85,6 +92,14 @@ class NormalSettings:
     smoothness: float = 0.0  # weight of the curvature prior: mean squared Laplacian of the height map (texel units)
     large_steps_lambda: float = 0.0  # > 0: the height map descends in Large Steps coordinates (I + lambda L) h, Uniform Adam
     colour_model: str = "auto"  # auto, one_colour or dye_layout (clothscope.fit.colour)
+    initial_relief: str = "flat"  # flat, or shading: the height map starts bright-high, dark-low (see initial_height)
+    initial_slope: float = 0.3  # RMS slope of the shading start (tangent of the tilt)
+
+    def __post_init__(self) -> None:
+        if self.initial_relief not in ("flat", "shading"):
+            raise ValueError(f"initial_relief must be 'flat' or 'shading', got {self.initial_relief!r}")
+        if not self.initial_slope > 0:
+            raise ValueError(f"initial_slope must be > 0, got {self.initial_slope}")
 
 
 #: File of the fitted shade texture in the stage's output folder (three equal channels).
@@ -109,6 +124,30 @@ def height_to_normals_np(height: np.ndarray) -> np.ndarray:
     dy = -(padded[2:, 1:-1] - padded[:-2, 1:-1]) / 2  # row index grows toward -y
     normal = np.stack([-dx, -dy, np.ones_like(dx)], axis=-1)
     return normal / np.linalg.norm(normal, axis=-1, keepdims=True)
+
+
+#: Width (working pixels) of the Gaussian whose blur is taken out of the shading start: fold-scale shading is the mesh's.
+RELIEF_HIGHPASS_PX = 16.0
+
+
+def initial_height(photo: np.ndarray, size: int, margin: float, slope: float) -> np.ndarray:
+    """(size * size,) start of the height map: the photo's shading high-passed, bright high and dark low ("dark is deep").
+
+    Crevices between yarns and holes are dark under most lights (occlusion), yarn crowns bright; the dye layout is
+    divided out (:func:`clothscope.shading.shading`) and shading wider than :data:`RELIEF_HIGHPASS_PX` removed. The
+    map is resampled onto the texel grid, which overhangs the view by ``margin``, and scaled to an RMS slope of
+    ``slope`` (texel widths). A photo with no contrast gives a flat start.
+    """
+    field = shading(photo.astype(np.float64))
+    field = field - ndimage.gaussian_filter(field, RELIEF_HIGHPASS_PX, mode="reflect")
+    centres = (((np.arange(size) + 0.5) / size - 0.5) * (1.0 + margin) + 0.5) * photo.shape[0] - 0.5
+    rows, cols = np.meshgrid(centres, centres, indexing="ij")
+    height = ndimage.map_coordinates(field, [rows, cols], order=1, mode="nearest")
+    gy, gx = np.gradient(height)
+    rms = float(np.sqrt(np.mean(gx**2 + gy**2)))
+    if not np.isfinite(rms) or rms < 1e-9:
+        return np.zeros(size * size, dtype=np.float32)
+    return (height * (slope / rms)).astype(np.float32).ravel()
 
 
 def normal_texture(mi: ModuleType, height: Any, neighbours: dict[str, Any], size: int) -> Any:
@@ -191,7 +230,9 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
             loss = loss + settings.albedo_weight * dr.mean(dr.abs(shade_of(mi, opt["shade"]) - 1.0))
         return loss
 
-    height0 = {"height": np.zeros(size * size, dtype=np.float32)}
+    start = (initial_height(target.image, size, fit.margin, settings.initial_slope) if settings.initial_relief == "shading"
+             else np.zeros(size * size, dtype=np.float32))
+    height0 = {"height": start if steps is None else steps.to_differential(start)}
     if shaded:
         height0["shade"] = np.full(size * size, SHADE_LATENT0, dtype=np.float32)
     uniform = steps is not None
