@@ -32,6 +32,7 @@ from scipy import ndimage
 
 from ..shading import chromaticity, dye_groups
 from .light import luminance
+from .model import texel_centres
 
 #: values of ``fit.normals.colour_model``
 COLOUR_MODELS = ("auto", "one_colour", "dye_layout")
@@ -60,8 +61,7 @@ class ColourModel:
 def texel_groups(groups: np.ndarray, texture: int, margin: float) -> np.ndarray:
     """(T, T) dye group under each texel of the plane, which overhangs the view by ``margin`` in all (edge groups extend)."""
     size = groups.shape[0]
-    centres = ((np.arange(texture) + 0.5) / texture - 0.5) * (1.0 + margin) + 0.5  # texel centres in view fractions
-    index = np.clip(np.floor(centres * size).astype(int), 0, size - 1)
+    index = np.clip(np.floor(texel_centres(texture, margin) * size).astype(int), 0, size - 1)
     return groups[np.ix_(index, index)]
 
 

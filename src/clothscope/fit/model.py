@@ -130,6 +130,11 @@ def plane_grid(camera: FitCamera, n: int = 64, margin: float = 0.06) -> np.ndarr
     return np.stack([x, y, np.zeros_like(x)], axis=-1)
 
 
+def texel_centres(texture: int, margin: float) -> np.ndarray:
+    """(texture,) centres of a texture's texels along one axis, in fractions of the view (the plane overhangs it by ``margin``)."""
+    return ((np.arange(texture) + 0.5) / texture - 0.5) * (1.0 + margin) + 0.5
+
+
 def grid_texcoords(n: int) -> np.ndarray:
     """(n, n, 2) texture coordinates: u along +x, v along -y, so texture row 0 lies at +y like an image."""
     t = np.linspace(0.0, 1.0, n)

@@ -67,8 +67,12 @@ from .effects import Plan
 from .large_steps import HeightSteps
 from .loop import LoopSettings, optimise
 from .material import apply_material, material_from_latents, material_latents
-from .model import BSDF_KEYS, FitScene, Material, build_scene, flat_normal_texture, shaded_texture
+from .model import BSDF_KEYS, FitScene, Material, build_scene, flat_normal_texture, shaded_texture, texel_centres
 from .stage import Target, image_loss, render, sigmoid
+
+
+#: Starts of the height map (``fit.normals.initial_relief``): flat, or the photo's shading (:func:`initial_height`).
+INITIAL_RELIEFS = ("flat", "shading")
 
 
 @dataclass(frozen=True)
@@ -96,8 +100,8 @@ class NormalSettings:
     initial_slope: float = 0.3  # RMS slope of the shading start (tangent of the tilt)
 
     def __post_init__(self) -> None:
-        if self.initial_relief not in ("flat", "shading"):
-            raise ValueError(f"initial_relief must be 'flat' or 'shading', got {self.initial_relief!r}")
+        if self.initial_relief not in INITIAL_RELIEFS:
+            raise ValueError(f"initial_relief must be one of {', '.join(INITIAL_RELIEFS)}, got {self.initial_relief!r}")
         if not self.initial_slope > 0:
             raise ValueError(f"initial_slope must be > 0, got {self.initial_slope}")
 
@@ -140,7 +144,7 @@ def initial_height(photo: np.ndarray, size: int, margin: float, slope: float) ->
     """
     field = shading(photo.astype(np.float64))
     field = field - ndimage.gaussian_filter(field, RELIEF_HIGHPASS_PX, mode="reflect")
-    centres = (((np.arange(size) + 0.5) / size - 0.5) * (1.0 + margin) + 0.5) * photo.shape[0] - 0.5
+    centres = texel_centres(size, margin) * photo.shape[0] - 0.5  # in photo pixels, 0 at the first pixel's centre
     rows, cols = np.meshgrid(centres, centres, indexing="ij")
     height = ndimage.map_coordinates(field, [rows, cols], order=1, mode="nearest")
     gy, gx = np.gradient(height)
