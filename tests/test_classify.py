@@ -8,19 +8,10 @@ import pandas as pd
 import pytest
 from PIL import Image
 
-from clothscope.classify import (
-    FlooredQDA,
-    LoocvResult,
-    confusion_matrix,
-    loocv,
-    make_qda,
-    per_class_metrics,
-    predict,
-    train_model,
-    wilson_interval,
-    write_reports,
-)
-from clothscope.qda_model import ARRAYS_NAME, RECORD_NAME, QdaParameters, load_model, save_model
+from clothscope.classify.loocv import LoocvResult, confusion_matrix, loocv, per_class_metrics, wilson_interval
+from clothscope.classify.model import ARRAYS_NAME, RECORD_NAME, QdaParameters, load_model, predict, save_model, train_model
+from clothscope.classify.qda import FlooredQDA, make_qda
+from clothscope.classify.reports import write_reports
 
 FEATURES = ["f0", "f1", "f2"]
 

@@ -6,9 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from clothscope.core.imageio import read_png, srgb_to_linear
 from clothscope.fit.colour import VALLEY_FRACTION, ColourModel, choose_colour_model, layout_texture, texel_groups, valley_ratio
-from clothscope.imageio import read_png, srgb_to_linear
-from clothscope.shading import chromaticity, dye_groups
+from clothscope.prepare.shading import chromaticity, dye_groups
 
 
 def two_dye_photo(size: int = 64, first: tuple[float, float, float] = (0.55, 0.05, 0.05)) -> np.ndarray:

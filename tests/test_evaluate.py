@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from clothscope.evaluate import effects_comparison, fold_normal_error, in_working_frame, period_error, seen_scale
+from clothscope.evaluate.accuracy import effects_comparison, fold_normal_error, in_working_frame, period_error, seen_scale
 from clothscope.fit.model import FitCamera, plane_grid
 
 

@@ -14,15 +14,27 @@ import pytest
 import yaml
 from conftest import ROOT, SCHEMAS, SYNTHETIC, job_counts, non_finite_outputs, run_snakemake
 
-from clothscope.features import (EXTRA_COLUMNS, concat_rows, config_hash, feature_row, feature_schema, features_job,
-                                 lit_normals, load_fitted, load_truth, paper_feature_columns, unusable_row, write_rows)
-from clothscope.imageio import read_png, write_exr
-from clothscope.qda_model import load_model
-from clothscope.schema import load_schema, validate
-from clothscope.spectrum import SpectrumSettings, analyse_normal_map
-from clothscope.structure import LBP_COLUMNS, STRUCTURE_COLUMNS, StructureSettings
-from clothscope.synth.generate import decode_normal, truth_paths
-from clothscope.tables import PAPER_EXPERIMENTS, truncated_features
+from clothscope.classify.model import load_model
+from clothscope.classify.paper_tables import PAPER_EXPERIMENTS, truncated_features
+from clothscope.core.imageio import read_png, write_exr
+from clothscope.core.schema import load_schema, validate
+from clothscope.core.truth import decode_normal, truth_paths
+from clothscope.features.paper import SpectrumSettings, analyse_normal_map
+from clothscope.features.structure import LBP_COLUMNS, STRUCTURE_COLUMNS, StructureSettings
+from clothscope.features.table import (
+    EXTRA_COLUMNS,
+    concat_rows,
+    config_hash,
+    feature_row,
+    feature_schema,
+    features_job,
+    lit_normals,
+    load_fitted,
+    load_truth,
+    paper_feature_columns,
+    unusable_row,
+    write_rows,
+)
 
 SETTINGS = SpectrumSettings()
 FEATURE_DEFAULTS = validate({}, load_schema(SCHEMAS / "config.schema.yaml"), "config")["features"]
@@ -250,7 +262,7 @@ def test_truth_mode_end_to_end_and_incremental(fresh_clone, tmp_path):
 
 
 def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path):
-    from clothscope.classify_job import classify_job
+    from clothscope.classify.job import classify_job
 
     settings = SpectrumSettings()
     rows = [feature_row(f"q{i}", "", noisy_map(seed=i), relief(noisy_map(seed=i)), 0.5, 0.4, settings, STRUCTURE, False)
@@ -272,8 +284,8 @@ def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path)
 
 
 def test_photo_loader_reads_luminance_and_skips_rejected_photos(tmp_path):
-    from clothscope.features import load_photo
-    from clothscope.prepare import PrepareSettings, prepare_image
+    from clothscope.features.table import load_photo
+    from clothscope.prepare.image import PrepareSettings, prepare_image
 
     prepare_image("a", SYNTHETIC / "canvas" / "canvas_red.png", tmp_path / "a", PrepareSettings(working_resolution=64))
     photo = load_photo(tmp_path / "a")

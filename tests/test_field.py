@@ -12,12 +12,22 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
-from clothscope.imageio import decode_image
-from clothscope.schema import load_schema
+from clothscope.core.imageio import decode_image
+from clothscope.core.schema import load_schema
+from clothscope.core.truth import truth_paths
 from clothscope.synth.fabrics import TWILL21, TWILL31
-from clothscope.synth.field import (CAPTURES, FIELD_FABRICS, FOOTPRINT_HALF, FieldHeight, draw_field, field_index,
-                                    field_rng, footprint_half_width, save_field, synthesize_field)
-from clothscope.synth.generate import truth_paths
+from clothscope.synth.field import (
+    CAPTURES,
+    FIELD_FABRICS,
+    FOOTPRINT_HALF,
+    FieldHeight,
+    draw_field,
+    field_index,
+    field_rng,
+    footprint_half_width,
+    save_field,
+    synthesize_field,
+)
 
 
 def test_draws_are_reproducible_and_independent():

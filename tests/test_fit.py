@@ -7,7 +7,10 @@ import math
 
 import numpy as np
 import pytest
+from conftest import SYNTHETIC
 
+from clothscope.core.imageio import linear_to_srgb, read_exr, write_png
+from clothscope.core.runtime import mitsuba_for
 from clothscope.fit import jobs
 from clothscope.fit.effects import Evidence, geometry_evidence, plan_stage
 from clothscope.fit.geometry import GeometrySettings
@@ -15,11 +18,7 @@ from clothscope.fit.loop import LoopSettings, optimise
 from clothscope.fit.material import MaterialSettings
 from clothscope.fit.model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
 from clothscope.fit.normals import NormalSettings, height_to_normals_np, initial_height
-from clothscope.imageio import linear_to_srgb, read_exr, write_png
-from clothscope.prepare import PrepareSettings, prepare_image
-from clothscope.runtime import mitsuba_for
-
-from conftest import SYNTHETIC
+from clothscope.prepare.image import PrepareSettings, prepare_image
 
 LOG = logging.getLogger("test_fit")
 TINY = dict(
@@ -100,8 +99,8 @@ def test_normals_without_joint_pass_keep_the_material_stage_bsdf(tmp_path):
 
 def test_shade_texture_takes_the_holes_of_an_open_weave_and_stays_in_range(tmp_path):
     """albedo_weight > 0: shade.exr is written, finite, in (0, 1 / s0], darker over gauze holes than over yarn."""
+    from clothscope.features.structure import StructureSettings, shade_features
     from clothscope.fit.normals import SHADE_FILE, SHADE_LATENT0
-    from clothscope.structure import StructureSettings, shade_features
 
     settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, albedo_weight=0.05,
                               colour_model="one_colour")

@@ -3,7 +3,7 @@
 Targets: LOOCV accuracy >= 0.95 (5 classes) and >= 0.85 (7 classes), and at
 most 5% of held-out predictions changed by a 30-degree rotation or a 1.5x zoom
 of the held-out map. Recolouring is not tested here: the features take no
-colour input (see :mod:`clothscope.invariance`), so on ground-truth maps it is
+colour input (see :mod:`clothscope.evaluate.invariance`), so on ground-truth maps it is
 an identity by construction; it must be measured on fitted maps.
 """
 from __future__ import annotations
@@ -18,12 +18,13 @@ import pandas as pd
 import pytest
 from conftest import SCHEMAS, SYNTHETIC
 
-from clothscope.classify import loocv, make_qda
-from clothscope.imageio import read_png
-from clothscope.invariance import prediction_change_rate, rotate_map, rotated_crop_size, zoom_map
-from clothscope.schema import load_schema, validate
-from clothscope.spectrum import SpectrumSettings, analyse_normal_map
-from clothscope.synth.generate import decode_normal
+from clothscope.classify.loocv import loocv
+from clothscope.classify.qda import make_qda
+from clothscope.core.imageio import read_png
+from clothscope.core.schema import load_schema, validate
+from clothscope.core.truth import decode_normal
+from clothscope.evaluate.invariance import prediction_change_rate, rotate_map, rotated_crop_size, zoom_map
+from clothscope.features.paper import SpectrumSettings, analyse_normal_map
 
 FIVE = ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze")
 SEVEN = (*FIVE, "knit_jersey", "velvet")
@@ -72,7 +73,7 @@ def test_loocv_accuracy_and_rotation_zoom_invariance(n_classes):
     classes, settings = SETTINGS[n_classes]
     tables, labels, ids, columns = _features(classes, settings)
     assert len(labels) == 6 * n_classes
-    # The accuracy reported by clothscope.classify.loocv ...
+    # The accuracy reported by clothscope.classify.loocv.loocv ...
     table = pd.DataFrame(tables["original"], columns=columns)
     table.insert(0, "fabric_class", labels)
     table.insert(0, "image_id", ids)
@@ -174,7 +175,7 @@ def test_change_rate_counts_changed_predictions():
 
 
 def test_photo_transforms_rotate_crop_zoom_and_recolour():
-    from clothscope.invariance import rotate_photo, shift_hue, zoom_photo
+    from clothscope.evaluate.invariance import rotate_photo, shift_hue, zoom_photo
 
     rgb = np.random.default_rng(0).uniform(0.1, 0.9, (64, 64, 3))
     assert rotate_photo(rgb, 30.0).shape == (rotated_crop_size(64, 30.0),) * 2 + (3,)
@@ -191,15 +192,15 @@ def test_refitted_thread_structure_survives_recolouring_rotation_and_zoom(tmp_pa
     """One photo and its recoloured, rotated and zoomed versions, each prepared and refitted at 128 px."""
     import logging
 
-    from clothscope.features import load_fitted
+    from clothscope.core.imageio import decode_image, linear_to_srgb, write_png
+    from clothscope.evaluate.invariance import PHOTO_TRANSFORMS
+    from clothscope.features.structure import StructureSettings, structure_features
+    from clothscope.features.table import load_fitted
     from clothscope.fit import jobs
     from clothscope.fit.geometry import GeometrySettings
     from clothscope.fit.material import MaterialSettings
     from clothscope.fit.normals import NormalSettings
-    from clothscope.imageio import decode_image, linear_to_srgb, write_png
-    from clothscope.invariance import PHOTO_TRANSFORMS
-    from clothscope.prepare import PrepareSettings, prepare_image
-    from clothscope.structure import StructureSettings, structure_features
+    from clothscope.prepare.image import PrepareSettings, prepare_image
 
     settings = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3)
     field = validate({}, load_schema(SCHEMAS / "config.schema.yaml"), "config")["features"]["fitted_field"]

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from clothscope.physics import PhysicsEntry, arcsim_material_json, load_physics_table, physics_for
+from clothscope.physics.materials import PhysicsEntry, arcsim_material_json, load_physics_table, physics_for
 
 ROOT = Path(__file__).resolve().parents[1]
 PHYSICS_YAML = ROOT / "config" / "physics.yaml"

@@ -9,15 +9,14 @@ import pytest
 import yaml
 from conftest import ROOT, SCHEMAS, SYNTHETIC
 
+from clothscope.classify.feature_sets import classifier_candidates, joined_table
+from clothscope.classify.model import load_model, save_model, train_model
 from clothscope.cli import main
-from clothscope.classify import train_model
-from clothscope.feature_sets import classifier_candidates, joined_table
-from clothscope.features import features_job
+from clothscope.core.schema import apply_preset, load_schema, validate
+from clothscope.features.structure import StructureSettings
+from clothscope.features.table import features_job
 from clothscope.predict import model_sources, training_settings, unique_ids
-from clothscope.prepare import PrepareSettings, prepare_image
-from clothscope.qda_model import load_model, save_model
-from clothscope.schema import apply_preset, load_schema, validate
-from clothscope.structure import StructureSettings
+from clothscope.prepare.image import PrepareSettings, prepare_image
 
 CLASSES = ("canvas", "satin", "velvet")
 TRAIN_COLORS = ("charcoal", "green", "ivory", "mustard")

@@ -7,15 +7,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import FILE_PROBLEMS, broken_and_valid_files, gradient_rgb
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from conftest import FILE_PROBLEMS, broken_and_valid_files, gradient_rgb
 from PIL import Image
 
-from clothscope.atomic import atomic_dir, write_json
-from clothscope.imageio import ImageRejected, decode_image, linear_to_srgb, srgb_to_linear, write_exr
-from clothscope.prepare import PrepareSettings, prepare_image, to_working_resolution
-from clothscope.structure import StructureSettings
+from clothscope.core.atomic import atomic_dir, write_json
+from clothscope.core.imageio import ImageRejected, decode_image, linear_to_srgb, srgb_to_linear, write_exr
+from clothscope.features.structure import StructureSettings
+from clothscope.prepare.image import PrepareSettings, prepare_image, to_working_resolution
 
 
 def test_srgb_round_trip_and_known_values():
@@ -33,7 +33,7 @@ def test_png8_decodes_to_linear(tmp_path):
 
 
 def test_png16_gray_and_colour_keep_16_bit_precision(tmp_path):
-    from clothscope.imageio import _mitsuba_scalar
+    from clothscope.core.imageio import _mitsuba_scalar
 
     values = np.linspace(0, 65535, 96 * 128).reshape(96, 128).astype(np.uint16)
     Image.fromarray(values).save(tmp_path / "g.png")
@@ -74,7 +74,7 @@ def test_common_formats_decode_to_similar_linear_rgb(tmp_path, name, mode, kwarg
 
 
 def test_exr_is_read_as_linear(tmp_path):
-    from clothscope.imageio import write_exr
+    from clothscope.core.imageio import write_exr
 
     data = np.random.default_rng(1).random((70, 80, 3)).astype(np.float32) * 3
     write_exr(tmp_path / "x.exr", data)
@@ -158,7 +158,7 @@ def test_a_rerun_removes_what_a_killed_writer_left_and_nothing_else(tmp_path):
     """A SIGKILLed job leaves .<name>.<random>.tmp behind; the next writer of that target removes it."""
     import tempfile
 
-    from clothscope.atomic import stale_temporaries, write_text
+    from clothscope.core.atomic import stale_temporaries, write_text
 
     stale_dir = Path(tempfile.mkdtemp(prefix=".normals.", suffix=".tmp", dir=tmp_path))
     (stale_dir / "half.exr").write_text("partial")
@@ -188,16 +188,16 @@ def weave_photo(side: int, period: float, angle_deg: float = 20.0, seed: int = 0
 
 @pytest.mark.parametrize("side, period", [(1024, 20.0), (900, 14.0), (1200, 30.0)])
 def test_native_period_is_measured_at_native_resolution(side, period):
-    from clothscope.imageio import srgb_to_linear
-    from clothscope.prepare import native_period
+    from clothscope.core.imageio import srgb_to_linear
+    from clothscope.prepare.image import native_period
 
     rgb = srgb_to_linear(weave_photo(side, period) / 255.0)
     assert native_period(rgb, 1024, LATTICE) == pytest.approx(period, rel=0.05)
 
 
 def test_yarn_dyed_stripes_do_not_read_as_the_thread_period():
-    from clothscope.imageio import srgb_to_linear
-    from clothscope.prepare import native_period
+    from clothscope.core.imageio import srgb_to_linear
+    from clothscope.prepare.image import native_period
 
     grey = srgb_to_linear(weave_photo(1024, 12.0) / 255.0)[..., :1]
     warp_band = (np.arange(1024) // 96) % 2 == 1  # stripes of 8 threads, red and ecru
@@ -307,7 +307,7 @@ def test_decompression_bomb_is_refused_from_the_header(tmp_path):
 
 @pytest.mark.parametrize("mode", ["RGB", "L", "P"])
 def test_8bit_photos_decode_through_the_table_exactly_as_the_transfer_function(tmp_path, mode):
-    from clothscope.imageio import decode_image, srgb_to_linear
+    from clothscope.core.imageio import decode_image, srgb_to_linear
 
     codes = np.random.default_rng(5).integers(0, 256, size=(70, 90, 3), dtype=np.uint8)
     image = Image.fromarray(codes).convert(mode)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from clothscope.runtime import find_libllvm, resolve_variant, runtime_metadata
+from clothscope.core.runtime import find_libllvm, resolve_variant, runtime_metadata
 
 
 def test_a_working_libllvm_is_found():
@@ -12,7 +12,7 @@ def test_a_working_libllvm_is_found():
 
 
 def test_auto_variant_is_cuda_only_with_a_gpu():
-    from clothscope.runtime import cuda_available
+    from clothscope.core.runtime import cuda_available
 
     assert resolve_variant("auto") == ("cuda_ad_rgb" if cuda_available() else "llvm_ad_rgb")
     assert resolve_variant("scalar_rgb") == "scalar_rgb"
@@ -24,7 +24,7 @@ def test_unknown_variant_is_refused():
 
 
 def test_metadata_records_variant():
-    from clothscope.runtime import mitsuba_for
+    from clothscope.core.runtime import mitsuba_for
 
     meta = runtime_metadata(mitsuba_for("llvm_ad_rgb", threads=2))
     assert meta["mitsuba_variant"] == "llvm_ad_rgb" and meta["mitsuba_version"] == "3.9.1"
@@ -38,8 +38,8 @@ def test_exr_io_after_a_one_thread_job_does_not_hang(tmp_path):
 
     script = textwrap.dedent(f"""
         import numpy as np, drjit as dr
-        from clothscope.imageio import decode_exr, read_exr, write_exr
-        from clothscope.runtime import mitsuba_for
+        from clothscope.core.imageio import decode_exr, read_exr, write_exr
+        from clothscope.core.runtime import mitsuba_for
         mitsuba_for("llvm_ad_rgb", threads=1)
         write_exr({str(tmp_path / 'a.exr')!r}, np.full((64, 64, 3), 0.25, np.float32))
         assert read_exr({str(tmp_path / 'a.exr')!r}).shape == (64, 64, 3)

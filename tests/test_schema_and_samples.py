@@ -5,8 +5,8 @@ import pytest
 import yaml
 from conftest import ROOT, SCHEMAS
 
-from clothscope.samples import load_sample_sheet, sheet_from_folder, sheet_to_tsv
-from clothscope.schema import InputError, apply_preset, load_schema, validate
+from clothscope.core.samples import load_sample_sheet, sheet_from_folder, sheet_to_tsv
+from clothscope.core.schema import InputError, apply_preset, load_schema, validate
 
 CONFIG_SCHEMA = load_schema(SCHEMAS / "config.schema.yaml")
 SAMPLE_SCHEMA = SCHEMAS / "samples.schema.yaml"

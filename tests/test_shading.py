@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothscope.fit.light import luminance
-from clothscope.shading import dye_groups, shading
+from clothscope.core.imageio import luminance
+from clothscope.prepare.shading import dye_groups, shading
 
 
 def threads_and_stripes(period: float = 9.0, stripe: int = 40, size: int = 256) -> tuple[np.ndarray, np.ndarray]:
@@ -44,8 +44,8 @@ def test_noisy_one_colour_photo_is_one_group():
 
 def test_a_dye_that_reads_darker_in_its_own_stripe_leaves_no_stripe_in_the_shading():
     """Navy weft between ecru warp reads lighter (blur, bounced light) than navy in a solid navy stripe."""
-    from clothscope.prepare import PERIOD_PEAK_FRACTION
-    from clothscope.structure import StructureSettings, analysis_field, find_lattice, spectrum
+    from clothscope.features.structure import StructureSettings, analysis_field, find_lattice, spectrum
+    from clothscope.prepare.image import PERIOD_PEAK_FRACTION
 
     size, period, stripe = 512, 8.0, 64
     y, x = np.mgrid[:size, :size].astype(float)

@@ -15,7 +15,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-
 from conftest import ROOT, non_finite_outputs, run_snakemake
 
 IMAGE = "velvet_navy"

@@ -6,16 +6,19 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from scipy import ndimage
 import pytest
 from conftest import SYNTHETIC
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from scipy import ndimage
 
-from clothscope.imageio import read_png
-from clothscope.spectrum import SpectrumSettings, analyse_normal_map, extra_features, plot_analysis, thread_period
-from clothscope.synth.generate import decode_normal
+from clothscope.core.imageio import read_png
+from clothscope.core.truth import decode_normal
+from clothscope.features.extras import extra_features
+from clothscope.features.paper import SpectrumSettings, analyse_normal_map
+from clothscope.features.period import thread_period
+from clothscope.features.plots import plot_analysis
 
 #: Settings used at the small property-test sizes: a 2-bin DC disc, a 3-bin filter at N = 64.
 SMALL = SpectrumSettings(n_peaks=2, alpha=2.0, dc_radius=8.0, peak_size=12.0, reference_resolution=256)

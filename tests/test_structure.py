@@ -4,12 +4,20 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import given, settings as hsettings, strategies as st
+from hypothesis import given
+from hypothesis import settings as hsettings
+from hypothesis import strategies as st
 from scipy import ndimage
 
-from clothscope.feature_sets import FEATURE_SETS, compare_feature_sets, group_columns, inverse_rendering_gain
-from clothscope.structure import (LBP_COLUMNS, LBP_SCALES, STRUCTURE_COLUMNS, StructureSettings, lbp_baseline,
-                                  structure_features)
+from clothscope.classify.feature_sets import FEATURE_SETS, compare_feature_sets, group_columns, inverse_rendering_gain
+from clothscope.features.structure import (
+    LBP_COLUMNS,
+    LBP_SCALES,
+    STRUCTURE_COLUMNS,
+    StructureSettings,
+    lbp_baseline,
+    structure_features,
+)
 
 SETTINGS = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3)
 
@@ -192,7 +200,7 @@ def test_group_columns():
 
 
 def test_nested_selection_picks_the_informative_set_inside_every_fold():
-    from clothscope.classify import loocv
+    from clothscope.classify.loocv import loocv
 
     rng = np.random.default_rng(2)
     table = _table("fitted", rng, True)
@@ -203,7 +211,7 @@ def test_nested_selection_picks_the_informative_set_inside_every_fold():
 
 
 def test_joined_table_marks_an_image_unusable_when_any_source_fails():
-    from clothscope.feature_sets import classifier_candidates, joined_table
+    from clothscope.classify.feature_sets import classifier_candidates, joined_table
 
     rng = np.random.default_rng(3)
     joined = joined_table({"fitted": _table("fitted", rng, True), "photo": _table("photo", rng, False, missing=("c5",))})
@@ -220,10 +228,11 @@ def test_joined_table_marks_an_image_unusable_when_any_source_fails():
 def test_diagnosis_of_a_fit_that_equals_the_truth_finds_nothing_wrong(tmp_path):
     import json
 
-    from clothscope.diagnosis import diagnosis_job
-    from clothscope.features import load_truth
-    from clothscope.imageio import write_exr
     from conftest import SYNTHETIC
+
+    from clothscope.core.imageio import write_exr
+    from clothscope.features.diagnosis import diagnosis_job
+    from clothscope.features.table import load_truth
 
     images = {}
     for image_id in ("canvas_red", "canvas_navy"):

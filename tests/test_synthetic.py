@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 from conftest import SYNTHETIC
 
-from clothscope.imageio import read_png
+from clothscope.core.imageio import read_png
+from clothscope.core.truth import decode_normal, truth_paths
 from clothscope.synth.fabrics import FABRICS
-from clothscope.synth.generate import dataset_index, decode_normal, save, synthesize, truth_paths
+from clothscope.synth.generate import dataset_index, save, synthesize
 from clothscope.synth.verify import compare_image
 
 TRUTHS = sorted(SYNTHETIC.glob("*/*.truth.json"))

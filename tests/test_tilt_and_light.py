@@ -6,14 +6,14 @@ import logging
 import numpy as np
 import pytest
 
+from clothscope.core.mesh import grid_faces
+from clothscope.core.runtime import mitsuba_for
 from clothscope.fit.geometry import grid_from, pinned_plane, tilted_grid
 from clothscope.fit.light import apply_light, cloth_normal, light_from_latent, tilted
 from clothscope.fit.loop import LoopSettings, optimise
 from clothscope.fit.model import FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
 from clothscope.fit.stage import Target, image_loss, render
 from clothscope.fit.tilt import TiltEstimate, estimate_tilt
-from clothscope.runtime import mitsuba_for
-from clothscope.synth.scene import grid_faces
 
 CAMERA = FitCamera(25.0)
 LOG = logging.getLogger("test_tilt_and_light")

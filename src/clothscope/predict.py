@@ -18,14 +18,18 @@ from typing import Any
 
 import pandas as pd
 
-from .atomic import write_json
-from .classify import posterior_column, predict
-from .feature_sets import joined_table
-from .features import STATUS_OK, features_job
-from .physics import PhysicsEntry, physics_for
-from .prepare import PrepareSettings, prepare_image
-from .qda_model import QdaModel
-from .structure import StructureSettings
+from clothscope.classify.feature_sets import joined_table
+from clothscope.classify.model import QdaModel, predict
+from clothscope.classify.rows import posterior_column
+from clothscope.core.atomic import write_json
+from clothscope.features.structure import StructureSettings
+from clothscope.features.table import STATUS_OK, features_job
+from clothscope.fit import jobs
+from clothscope.fit.geometry import GeometrySettings
+from clothscope.fit.material import MaterialSettings
+from clothscope.fit.normals import NormalSettings
+from clothscope.physics.materials import PhysicsEntry, physics_for
+from clothscope.prepare.image import PrepareSettings, prepare_image
 
 #: Stages of one photo, in order (the progress bar counts them).
 STAGES = ("prepare", "fit_geometry", "fit_material", "fit_normals", "features", "classify")
@@ -75,10 +79,6 @@ def unique_ids(photos: list[str]) -> list[str]:
 def _fit(prepared: Path, work: Path, settings: dict[str, Any], threads: int, log: logging.Logger,
          step: Callable[[str], None]) -> Path:
     """The three fit stages of one photo; returns the normals folder (its state says if a stage failed)."""
-    from .fit import jobs
-    from .fit.geometry import GeometrySettings
-    from .fit.material import MaterialSettings
-    from .fit.normals import NormalSettings
 
     fit = settings["fit"]
     common = {"variant": settings["variant"], "threads": threads, "full_effects": fit["full_effects"], "log": log}

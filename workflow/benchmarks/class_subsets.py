@@ -1,6 +1,6 @@
 """Benchmark: the classifier of record's LOOCV accuracy on the paper's class subsets, on the design and held-out sets.
 
-For each of the paper's experiments (5, 7 and 6 classes, :data:`clothscope.tables.PAPER_EXPERIMENTS`)
+For each of the paper's experiments (5, 7 and 6 classes, :data:`clothscope.classify.paper_tables.PAPER_EXPERIMENTS`)
 the images of those classes are scored by the same LOOCV as the ``classify`` rule: the
 configured feature set (``auto`` chooses inside each fold) and QDA subspace, on the fitted maps
 joined with the photo's features. No setting is chosen here; the design set's figures are
@@ -19,10 +19,10 @@ from pathlib import Path
 import pandas as pd
 from harness import ROOT, publish, validated_config
 
-from clothscope.classify import loocv
-from clothscope.feature_sets import classifier_candidates, joined_table
-from clothscope.features import STATUS_OK, read_table
-from clothscope.tables import PAPER_EXPERIMENTS
+from clothscope.classify.feature_sets import classifier_candidates, joined_table
+from clothscope.classify.loocv import loocv
+from clothscope.classify.paper_tables import PAPER_EXPERIMENTS
+from clothscope.features.table import STATUS_OK, read_table
 
 
 def classify_config() -> dict:

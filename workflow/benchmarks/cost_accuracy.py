@@ -31,9 +31,9 @@ import pandas as pd
 import yaml
 from harness import ROOT, SUBSET, publish, seed_prepared, snakemake, write_sheet
 
-from clothscope.atomic import write_text, write_with
-from clothscope.evaluate import effects_comparison
-from clothscope.runtime import cuda_available
+from clothscope.core.atomic import write_text, write_with
+from clothscope.core.runtime import cuda_available
+from clothscope.evaluate.accuracy import effects_comparison
 
 #: variant -> (preset, overlay of knobs, runs on the whole sheet)
 VARIANTS: dict[str, tuple[str, dict, bool]] = {

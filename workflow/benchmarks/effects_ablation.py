@@ -17,7 +17,7 @@ from pathlib import Path
 import pandas as pd
 from harness import ROOT, SUBSET, publish, snakemake, write_sheet
 
-from clothscope.evaluate import effects_comparison
+from clothscope.evaluate.accuracy import effects_comparison
 
 
 def run_mode(mode: str, sheet: Path, out: Path) -> pd.DataFrame:

@@ -7,7 +7,7 @@
 Reads each image's truth record (the generator's draws and render seconds) and, where the
 workflow has run on the set, the period ``prepare`` measured at native resolution
 (``prepared/<id>/status.json``, ``scale.native_period_px``) against the true period as seen
-(the nominal period times :func:`clothscope.evaluate.seen_scale`, the mean magnification the
+(the nominal period times :func:`clothscope.evaluate.accuracy.seen_scale`, the mean magnification the
 folds give; knits: wale or course, whichever is closer). The period is also measured here on the luminance and on the shading with the yarn
 colours divided out (``prepare.period_field``). Writes ``results/bench/<name>.{csv,md}`` and
 ``<name>.jpg``, the centred 512 px of every image, one row per class.
@@ -28,12 +28,12 @@ import pandas as pd
 from harness import ROOT, publish, validated_config
 from PIL import Image
 
-from clothscope.atomic import write_with
-from clothscope.evaluate import seen_scale
-from clothscope.imageio import decode_image
-from clothscope.prepare import native_period
-from clothscope.structure import StructureSettings
-from clothscope.synth.generate import truth_paths
+from clothscope.core.atomic import write_with
+from clothscope.core.imageio import decode_image
+from clothscope.core.truth import truth_paths
+from clothscope.evaluate.accuracy import seen_scale
+from clothscope.features.structure import StructureSettings
+from clothscope.prepare.image import native_period
 
 TOLERANCE = 0.05
 #: a period read this many times too long is a colour or weave repeat: the crop then leaves the threads too fine to fit

@@ -9,7 +9,7 @@ For every synthetic image (ground truth only, no fitting; seconds in all):
   only, so a fit without a shape prior stronger than smoothness cannot beat this;
 - ``untilted_camera_deg``: the exact true fold surface seen by the fit's
   untilted camera (the synthetic camera is tilted 0-10 deg; the fit's is not),
-  scored like a fit (``clothscope.evaluate.fold_normal_error``).
+  scored like a fit (``clothscope.evaluate.accuracy.fold_normal_error``).
 
     .venv/bin/python workflow/benchmarks/fold_bounds.py
 
@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 from harness import ROOT, publish
 
-from clothscope.evaluate import angular_error_deg, camera_basis, fold_normal_error, hit_plane, pixel_rays
+from clothscope.evaluate.accuracy import angular_error_deg, camera_basis, fold_normal_error, hit_plane, pixel_rays
 from clothscope.fit.model import FitCamera, plane_grid
 from clothscope.synth.generate import fold_surface
 

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from clothscope.atomic import write_text
-from clothscope.evaluate import benchmark_seconds
+from clothscope.core.atomic import write_text
+from clothscope.evaluate.accuracy import benchmark_seconds
 
 ROOT = Path(__file__).resolve().parents[2]
 STAGES = ("geometry", "material", "normals")
@@ -26,7 +26,7 @@ def validated_config() -> dict:
     """``config/config.yaml`` with its preset merged and the schema's defaults filled in, as the workflow sees it."""
     import yaml
 
-    from clothscope.schema import apply_preset, load_schema, validate
+    from clothscope.core.schema import apply_preset, load_schema, validate
 
     config = apply_preset(yaml.safe_load((ROOT / "config" / "config.yaml").read_text()), ROOT / "config" / "presets")
     return validate(config, load_schema(ROOT / "workflow" / "schemas" / "config.schema.yaml"), "config")

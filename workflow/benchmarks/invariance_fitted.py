@@ -1,7 +1,7 @@
 """Benchmark: do predictions from *fitted* maps survive rotating, zooming and recolouring the photo?
 
 For each chosen image of the default sheet (two per class by default) the
-photo is transformed three ways (:data:`clothscope.invariance.PHOTO_TRANSFORMS`):
+photo is transformed three ways (:data:`clothscope.evaluate.invariance.PHOTO_TRANSFORMS`):
 
 * ``rotate30``: turned 30 degrees, the valid centre kept (181 of 256 px; the
   prepare stage resizes it to the working resolution, so it is also magnified
@@ -34,14 +34,14 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from class_subsets import classify_config
 from harness import ROOT, publish, snakemake, write_sheet
 
-from class_subsets import classify_config
-
-from clothscope.classify import choose_columns, predict, train_model
-from clothscope.feature_sets import FEATURE_SETS, auto_candidates, classifier_candidates, common_images, joined_features
-from clothscope.imageio import decode_image, linear_to_srgb, write_png
-from clothscope.invariance import PHOTO_TRANSFORMS
+from clothscope.classify.feature_sets import FEATURE_SETS, auto_candidates, classifier_candidates, common_images, joined_features
+from clothscope.classify.loocv import choose_columns
+from clothscope.classify.model import predict, train_model
+from clothscope.core.imageio import decode_image, linear_to_srgb, write_png
+from clothscope.evaluate.invariance import PHOTO_TRANSFORMS
 
 #: two images per class
 PAIRS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet")

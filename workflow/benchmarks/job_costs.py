@@ -41,7 +41,7 @@ START_UP = {
     "interpreter": "pass",
     "import the fit package": "import clothscope.fit.jobs",
     "import the fit package and load Mitsuba (llvm_ad_rgb, 1 thread)":
-        "import clothscope.fit.jobs\nfrom clothscope.runtime import mitsuba_for\nmitsuba_for('llvm_ad_rgb', 1)",
+        "import clothscope.fit.jobs\nfrom clothscope.core.runtime import mitsuba_for\nmitsuba_for('llvm_ad_rgb', 1)",
 }
 
 
@@ -119,11 +119,11 @@ def kernel_split(image: str, results: Path) -> pd.DataFrame:
     """
     import drjit as dr
 
+    from clothscope.core.runtime import mitsuba_for
     from clothscope.fit import jobs
     from clothscope.fit.geometry import GeometrySettings
     from clothscope.fit.material import MaterialSettings
     from clothscope.fit.normals import NormalSettings
-    from clothscope.runtime import mitsuba_for
 
     config = validated_config()
     fit = config["fit"]

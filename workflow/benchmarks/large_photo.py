@@ -25,8 +25,8 @@ from PIL import Image
 #: runs in the child process: prepare one photo, print seconds and peak RSS (KiB on Linux)
 CHILD = """
 import json, resource, sys, time
-from clothscope.prepare import PrepareSettings, prepare_image
-from clothscope.structure import StructureSettings
+from clothscope.prepare.image import PrepareSettings, prepare_image
+from clothscope.features.structure import StructureSettings
 photo, out, prepare, structure = sys.argv[1], sys.argv[2], json.loads(sys.argv[3]), json.loads(sys.argv[4])
 started = time.perf_counter()
 record = prepare_image("large", photo, out, PrepareSettings(**prepare), StructureSettings(**structure))

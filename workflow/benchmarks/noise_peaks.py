@@ -25,9 +25,9 @@ import pandas as pd
 from harness import ROOT, publish, validated_config
 from scipy import ndimage
 
-from clothscope.features import spectrum_settings, structure_settings
-from clothscope.spectrum import analyse_normal_map
-from clothscope.structure import StructureSettings, analysis_field, find_lattice, spectrum
+from clothscope.features.paper import analyse_normal_map
+from clothscope.features.structure import StructureSettings, analysis_field, find_lattice, spectrum
+from clothscope.features.table import spectrum_settings, structure_settings
 
 SIZES = (64, 256, 512)
 

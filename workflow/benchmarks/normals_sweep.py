@@ -53,11 +53,11 @@ def fit_one(job: tuple[str, str, dict]) -> dict:
     """Rerun ``fit_normals`` of one image from its material stage; its fitted and true roughness and seconds."""
     import logging
 
+    from clothscope.core.runtime import mitsuba_for
     from clothscope.fit.colour import choose_colour_model
     from clothscope.fit.effects import geometry_evidence, plan_stage
     from clothscope.fit.normals import NormalSettings, fit_normals
     from clothscope.fit.stage import at_resolution, load_prepared, load_state
-    from clothscope.runtime import mitsuba_for
 
     image, fabric_class, settings = job
     mi = mitsuba_for("llvm_ad_rgb", 1)

@@ -24,7 +24,7 @@ import pandas as pd
 import yaml
 from harness import ROOT, STAGES, publish, seed_prepared, snakemake, stage_benchmarks
 
-from clothscope.schema import deep_merge
+from clothscope.core.schema import deep_merge
 
 
 def run_capped(image: str, iterations: int, out: Path) -> dict[str, float]:

@@ -20,7 +20,7 @@ from pathlib import Path
 import pandas as pd
 from harness import ROOT, publish, validated_config
 
-from clothscope.feature_sets import compare_feature_sets
+from clothscope.classify.feature_sets import compare_feature_sets
 
 SOURCES = ("fitted", "photo", "truth")
 #: prefix of the held-out set's image ids in the pool (both sets use the same ids)

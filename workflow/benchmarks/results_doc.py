@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-from clothscope.atomic import write_text
+from clothscope.core.atomic import write_text
 
 ROOT = Path(__file__).resolve().parents[2]
 THIS_COMMAND = ".venv/bin/python workflow/benchmarks/results_doc.py"

@@ -22,13 +22,13 @@ import numpy as np
 import pandas as pd
 from harness import ROOT, SUBSET, publish
 
+from clothscope.core.imageio import read_exr
+from clothscope.core.runtime import mitsuba_for
+from clothscope.core.schema import load_schema
 from clothscope.fit.integrator import NAME as UNSHADOWED
 from clothscope.fit.model import build_scene
 from clothscope.fit.normals import ALBEDO_FILE, NormalSettings
 from clothscope.fit.stage import load_state
-from clothscope.imageio import read_exr
-from clothscope.runtime import mitsuba_for
-from clothscope.schema import load_schema
 
 #: the samplers a fit stage may use (``fit.normals.sampler`` in the config schema)
 SAMPLERS = tuple(load_schema(ROOT / "workflow" / "schemas" / "config.schema.yaml")

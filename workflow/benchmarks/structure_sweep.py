@@ -2,7 +2,7 @@
 
 Recomputes the ``s_*`` columns of every image's fitted relief (and the
 photo's luminance) for each cell of a grid of
-:class:`clothscope.structure.StructureSettings`, and scores each feature set
+:class:`clothscope.features.structure.StructureSettings`, and scores each feature set
 by the workflow's LOOCV QDA. The best cell of a grid chosen by looking at
 these scores is **optimistic** (the settings saw the images they are scored
 on); the report marks it, and gives the same cells on a second results folder
@@ -24,9 +24,9 @@ from pathlib import Path
 import pandas as pd
 from harness import ROOT, publish, validated_config
 
-from clothscope.feature_sets import FEATURE_SETS, common_images, score_feature_set
-from clothscope.features import load_fitted, load_photo
-from clothscope.structure import StructureSettings, structure_features
+from clothscope.classify.feature_sets import FEATURE_SETS, common_images, score_feature_set
+from clothscope.features.structure import StructureSettings, structure_features
+from clothscope.features.table import load_fitted, load_photo
 
 #: cells of the sweep: border x peak threshold at the default fundamental fraction, and the other fraction at the default
 CELLS = [*({"border": b, "peak_threshold": t, "fundamental_fraction": 0.3} for b in (0.0, 0.1, 0.2) for t in (5.0, 10.0)),

@@ -2,9 +2,9 @@
 import os
 import sys
 
-from clothscope.imageio import file_problem
-from clothscope.samples import load_sample_sheet
-from clothscope.schema import InputError, apply_preset, load_schema, validate
+from clothscope.core.imageio import file_problem
+from clothscope.core.samples import load_sample_sheet
+from clothscope.core.schema import InputError, apply_preset, load_schema, validate
 from clothscope.synth.field import FIELD_FABRICS, field_index
 from clothscope.synth.generate import dataset_index
 
@@ -87,9 +87,9 @@ def field_outputs():
 # {source} is the normal source: "fitted" (rule fit_normals) or "truth" (synthetic ground truth).
 from pathlib import Path
 
-from clothscope.features import NORMAL_SOURCES, row_settings
-from clothscope.tables import PAPER_EXPERIMENTS
-from clothscope.synth.generate import truth_paths
+from clothscope.features.table import NORMAL_SOURCES, row_settings
+from clothscope.classify.paper_tables import PAPER_EXPERIMENTS
+from clothscope.core.truth import truth_paths
 
 
 wildcard_constraints:

@@ -1,5 +1,5 @@
 """Snakemake job: compare regenerated synthetic images with the committed set."""
-from clothscope.joblog import job_log
+from clothscope.core.joblog import job_log
 from clothscope.synth.verify import compare_datasets, write_report
 
 with job_log(snakemake.log[0], "check_synthetic") as log:

@@ -1,8 +1,8 @@
-"""Snakemake job: LOOCV reports, the all-labelled model, query predictions, physics JSON (clothscope.classify_job)."""
+"""Snakemake job: LOOCV reports, the all-labelled model, query predictions, physics JSON (clothscope.classify.job)."""
 import os
 
-from clothscope.classify_job import classify_job
-from clothscope.joblog import job_log
+from clothscope.classify.job import classify_job
+from clothscope.core.joblog import job_log
 
 with job_log(snakemake.log[0], "classify") as log:
     classify_job(

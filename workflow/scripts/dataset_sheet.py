@@ -4,10 +4,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from clothscope.atomic import write_text
-from clothscope.joblog import job_log
-from clothscope.samples import COLUMNS, sheet_to_tsv
-from clothscope.synth.generate import truth_paths
+from clothscope.core.atomic import write_text
+from clothscope.core.joblog import job_log
+from clothscope.core.samples import COLUMNS, sheet_to_tsv
+from clothscope.core.truth import truth_paths
 
 
 def colour_of(path: Path) -> str:

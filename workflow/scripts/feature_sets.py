@@ -1,6 +1,6 @@
-"""Snakemake job: the feature sets side by side (logic in clothscope.feature_sets)."""
-from clothscope.feature_sets import feature_sets_job
-from clothscope.joblog import job_log
+"""Snakemake job: the feature sets side by side (logic in clothscope.classify.feature_sets)."""
+from clothscope.classify.feature_sets import feature_sets_job
+from clothscope.core.joblog import job_log
 
 with job_log(snakemake.log[0], "feature_sets") as log:
     feature_sets_job(

@@ -1,9 +1,9 @@
 """Snakemake job: concatenate the one-row feature files into the feature table (no recomputation)."""
 import pyarrow.parquet as pq
 
-from clothscope.atomic import write_with
-from clothscope.features import concat_rows
-from clothscope.joblog import job_log
+from clothscope.core.atomic import write_with
+from clothscope.core.joblog import job_log
+from clothscope.features.table import concat_rows
 
 with job_log(snakemake.log[0], "feature_table") as log:
     table = concat_rows(list(snakemake.input))

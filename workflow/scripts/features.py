@@ -1,6 +1,6 @@
 """Snakemake job: the feature row and spectrum plot of one image (logic in clothscope.features)."""
-from clothscope.features import features_job
-from clothscope.joblog import job_log
+from clothscope.core.joblog import job_log
+from clothscope.features.table import features_job
 
 with job_log(snakemake.log[0], "features") as log:
     features_job(

@@ -2,9 +2,9 @@
 import os
 from pathlib import Path
 
-from clothscope.evaluate import write_accuracy_report
-from clothscope.joblog import job_log
-from clothscope.synth.generate import truth_paths
+from clothscope.core.joblog import job_log
+from clothscope.core.truth import truth_paths
+from clothscope.evaluate.accuracy import write_accuracy_report
 
 with job_log(snakemake.log[0], "fit_accuracy") as log:
     rows = write_accuracy_report(

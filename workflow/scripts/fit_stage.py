@@ -1,9 +1,9 @@
 """Snakemake job: one inverse-rendering stage of one image (logic in clothscope.fit)."""
+from clothscope.core.joblog import job_log
 from clothscope.fit import jobs
 from clothscope.fit.geometry import GeometrySettings
 from clothscope.fit.material import MaterialSettings
 from clothscope.fit.normals import NormalSettings
-from clothscope.joblog import job_log
 
 stage = snakemake.rule.removeprefix("fit_")
 common = dict(variant=snakemake.params.variant, threads=snakemake.threads, full_effects=snakemake.params.full_effects)

@@ -1,6 +1,6 @@
-"""Snakemake job: the paper's three experiments, features recomputed from the normal maps (clothscope.tables)."""
-from clothscope.joblog import job_log
-from clothscope.tables import paper_tables_job
+"""Snakemake job: the paper's three experiments, features recomputed from the normal maps (clothscope.classify.paper_tables)."""
+from clothscope.classify.paper_tables import paper_tables_job
+from clothscope.core.joblog import job_log
 
 with job_log(snakemake.log[0], "paper_tables") as log:
     paper_tables_job(

@@ -1,7 +1,7 @@
 """Snakemake job: prepare one image (logic in clothscope.prepare)."""
-from clothscope.joblog import job_log
-from clothscope.prepare import PrepareSettings, prepare_image
-from clothscope.structure import StructureSettings
+from clothscope.core.joblog import job_log
+from clothscope.features.structure import StructureSettings
+from clothscope.prepare.image import PrepareSettings, prepare_image
 
 with job_log(snakemake.log[0], "prepare") as log:
     record = prepare_image(

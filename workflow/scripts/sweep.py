@@ -1,6 +1,6 @@
-"""Snakemake job: LOOCV accuracy over a grid of spectrum settings (clothscope.tables)."""
-from clothscope.joblog import job_log
-from clothscope.tables import sweep_job
+"""Snakemake job: LOOCV accuracy over a grid of spectrum settings (clothscope.classify.paper_tables)."""
+from clothscope.classify.paper_tables import sweep_job
+from clothscope.core.joblog import job_log
 
 with job_log(snakemake.log[0], "sweep") as log:
     sweep_job(

@@ -1,5 +1,5 @@
 """Snakemake job: render one synthetic image with ground truth (logic in clothscope.synth)."""
-from clothscope.joblog import job_log
+from clothscope.core.joblog import job_log
 from clothscope.synth.generate import DYES, save, synthesize
 
 with job_log(snakemake.log[0], "synthesize") as log:

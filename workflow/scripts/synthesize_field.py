@@ -1,5 +1,5 @@
 """Snakemake job: render one capture-realistic field photo with ground truth (logic in clothscope.synth.field)."""
-from clothscope.joblog import job_log
+from clothscope.core.joblog import job_log
 from clothscope.synth.field import save_field, synthesize_field
 
 with job_log(snakemake.log[0], "synthesize_field") as log:

@@ -3,7 +3,7 @@
 One base colour makes the fit explain a yarn-dyed cloth's colour pattern
 (stripes, checks, denim's indigo warp on ecru weft) with tilted normals. When
 the working photo holds more than one dye group
-(:func:`clothscope.shading.dye_groups`), the ``dye_layout`` model makes the
+(:func:`clothscope.prepare.shading.dye_groups`), the ``dye_layout`` model makes the
 base colour the fitted colour times a fixed *layout* texture: each texel's
 dye-group mean colour over the photo's mean colour, so the fitted colour stays
 the cloth's mean colour. The layout is read from the photo, not optimised, so
@@ -30,9 +30,9 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from ..shading import chromaticity, dye_groups
-from .light import luminance
-from .model import texel_centres
+from clothscope.core.imageio import luminance
+from clothscope.fit.model import texel_centres
+from clothscope.prepare.shading import chromaticity, dye_groups
 
 #: values of ``fit.normals.colour_model``
 COLOUR_MODELS = ("auto", "one_colour", "dye_layout")

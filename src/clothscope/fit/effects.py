@@ -18,8 +18,9 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from .integrator import NAME as UNSHADOWED
-from .model import FitCamera, PointLight
+from clothscope.core.mesh import grid_normals
+from clothscope.fit.integrator import NAME as UNSHADOWED
+from clothscope.fit.model import FitCamera, PointLight
 
 
 @dataclass(frozen=True)
@@ -137,7 +138,6 @@ def geometry_evidence(grid: np.ndarray, camera: FitCamera, light: PointLight | N
     whose normals point toward each other at more than ``facing_cos``. Cast
     shadows: :func:`casts_shadows` (assumed when the light is unknown).
     """
-    from ..synth.scene import grid_normals
 
     normals = grid_normals(grid)
     to_camera = np.array([0.0, 0.0, camera.distance]) - grid

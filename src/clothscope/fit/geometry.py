@@ -22,13 +22,21 @@ from typing import Any
 
 import numpy as np
 
-from .effects import Evidence, geometry_evidence, plan_stage
-from .light import apply_light, cloth_normal, estimate_light, lambert_falloff, light_from_latent, plane_points, tilted
-from .loop import LoopSettings, optimise
-from .model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
-from .material import apply_material, material_from_latents, material_latents
-from .stage import Target, at_resolution, image_loss, render
-from .tilt import TiltEstimate, estimate_tilt
+from clothscope.fit.effects import Evidence, geometry_evidence, plan_stage
+from clothscope.fit.light import (
+    apply_light,
+    cloth_normal,
+    estimate_light,
+    lambert_falloff,
+    light_from_latent,
+    plane_points,
+    tilted,
+)
+from clothscope.fit.loop import LoopSettings, optimise
+from clothscope.fit.material import apply_material, material_from_latents, material_latents
+from clothscope.fit.model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
+from clothscope.fit.stage import Target, at_resolution, image_loss, render
+from clothscope.fit.tilt import TiltEstimate, estimate_tilt
 
 
 @dataclass(frozen=True)

@@ -17,17 +17,28 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic import atomic_dir, write_json, write_text
-from ..imageio import write_exr, write_png
-from ..runtime import mitsuba_for, runtime_metadata
-from .colour import choose_colour_model
-from .effects import geometry_evidence, plan_stage
-from .geometry import GeometrySettings, fit_geometry
-from .material import MaterialSettings, fit_material
-from .model import PREVIEW_SAMPLER, FitScene, build_scene, shaded_texture
-from .normals import ALBEDO_FILE, SHADE_FILE, NormalSettings, fit_normals, height_to_normals_np
-from .stage import (STATE_FILE, SkipStage, Target, at_resolution, load_prepared, load_state, psnr, save_state,
-                    scene_xml, write_comparison, write_loss_curve)
+from clothscope.core.atomic import atomic_dir, write_json, write_text
+from clothscope.core.imageio import write_exr, write_png
+from clothscope.core.runtime import mitsuba_for, runtime_metadata
+from clothscope.fit.colour import choose_colour_model
+from clothscope.fit.effects import geometry_evidence, plan_stage
+from clothscope.fit.geometry import GeometrySettings, fit_geometry
+from clothscope.fit.material import MaterialSettings, fit_material
+from clothscope.fit.model import PREVIEW_SAMPLER, FitScene, build_scene, shaded_texture
+from clothscope.fit.normals import ALBEDO_FILE, SHADE_FILE, NormalSettings, fit_normals, height_to_normals_np
+from clothscope.fit.stage import (
+    STATE_FILE,
+    SkipStage,
+    Target,
+    at_resolution,
+    load_prepared,
+    load_state,
+    psnr,
+    save_state,
+    scene_xml,
+    write_comparison,
+    write_loss_curve,
+)
 
 MESH_FILE = "mesh.ply"
 PREVIEW_SPP = 32

@@ -19,15 +19,11 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
-from .model import FitCamera, PointLight, calibrated_intensity
+from clothscope.core.imageio import luminance
+from clothscope.fit.model import FitCamera, PointLight, calibrated_intensity
 
 #: the light is kept at least this cosine above the cloth's horizon while it is fitted
 MIN_COSINE = 0.1
-
-
-def luminance(rgb: np.ndarray) -> np.ndarray:
-    """Rec. 709 luminance of a linear (H, W, 3) image."""
-    return rgb @ np.array([0.2126, 0.7152, 0.0722])
 
 
 def plane_points(camera: FitCamera, resolution: int) -> tuple[np.ndarray, np.ndarray]:

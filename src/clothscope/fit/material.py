@@ -14,10 +14,10 @@ from typing import Any
 import numpy as np
 from scipy.special import expit
 
-from .effects import Plan
-from .loop import LoopSettings, optimise
-from .model import BSDF_KEYS, FitScene, Material, build_scene
-from .stage import Target, image_loss, logit, render, sigmoid
+from clothscope.fit.effects import Plan
+from clothscope.fit.loop import LoopSettings, optimise
+from clothscope.fit.model import BSDF_KEYS, FitScene, Material, build_scene
+from clothscope.fit.stage import Target, image_loss, logit, render, sigmoid
 
 
 @dataclass(frozen=True)

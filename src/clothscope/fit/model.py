@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from ..synth.scene import cloth_mesh
-from .integrator import NAME as UNSHADOWED
-from .integrator import register as register_unshadowed
+from clothscope.core.mesh import cloth_mesh
+from clothscope.fit.integrator import NAME as UNSHADOWED
+from clothscope.fit.integrator import register as register_unshadowed
 
 CAMERA_DISTANCE = 3.0
 WHITE_PATCH_READING = 0.85

@@ -61,15 +61,14 @@ import numpy as np
 from scipy import ndimage
 from scipy.special import expit
 
-from ..shading import shading
-from .colour import ColourModel
-from .effects import Plan
-from .large_steps import HeightSteps
-from .loop import LoopSettings, optimise
-from .material import apply_material, material_from_latents, material_latents
-from .model import BSDF_KEYS, FitScene, Material, build_scene, flat_normal_texture, shaded_texture, texel_centres
-from .stage import Target, image_loss, render, sigmoid
-
+from clothscope.fit.colour import ColourModel
+from clothscope.fit.effects import Plan
+from clothscope.fit.large_steps import HeightSteps
+from clothscope.fit.loop import LoopSettings, optimise
+from clothscope.fit.material import apply_material, material_from_latents, material_latents
+from clothscope.fit.model import BSDF_KEYS, FitScene, Material, build_scene, flat_normal_texture, shaded_texture, texel_centres
+from clothscope.fit.stage import Target, image_loss, render, sigmoid
+from clothscope.prepare.shading import shading
 
 #: Starts of the height map (``fit.normals.initial_relief``): flat, or the photo's shading (:func:`initial_height`).
 INITIAL_RELIEFS = ("flat", "shading")
@@ -138,7 +137,7 @@ def initial_height(photo: np.ndarray, size: int, margin: float, slope: float) ->
     """(size * size,) start of the height map: the photo's shading high-passed, bright high and dark low ("dark is deep").
 
     Crevices between yarns and holes are dark under most lights (occlusion), yarn crowns bright; the dye layout is
-    divided out (:func:`clothscope.shading.shading`) and shading wider than :data:`RELIEF_HIGHPASS_PX` removed. The
+    divided out (:func:`clothscope.prepare.shading.shading`) and shading wider than :data:`RELIEF_HIGHPASS_PX` removed. The
     map is resampled onto the texel grid, which overhangs the view by ``margin``, and scaled to an RMS slope of
     ``slope`` (texel widths). A photo with no contrast gives a flat start.
     """

@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic import write_json, write_text, write_with
-from ..imageio import linear_to_srgb, read_png, write_png
-from ..prepare import CLIPPED_FILE, IMAGE_FILE, read_status, resize_channel
-from .model import PREVIEW_SAMPLER, FitCamera, FitScene, Material, PointLight
+from clothscope.core.atomic import write_json, write_text, write_with
+from clothscope.core.imageio import decode_exr, linear_to_srgb, read_png, write_png
+from clothscope.fit.model import PREVIEW_SAMPLER, FitCamera, FitScene, Material, PointLight
+from clothscope.prepare.image import CLIPPED_FILE, IMAGE_FILE, read_status, resize_channel
 
 STATE_FILE = "state.json"
 GRID_FILE = "grid.npy"
@@ -43,7 +43,6 @@ def load_prepared(prepared_dir: str | os.PathLike[str]) -> Target:
     status = read_status(prepared_dir)
     if status.get("status") != "accepted":
         raise SkipStage(f"rejected by prepare: {status.get('reason', '')}")
-    from ..imageio import decode_exr
 
     decoded = decode_exr(Path(prepared_dir) / IMAGE_FILE, 1, 1e9)
     clipped = read_png(Path(prepared_dir) / CLIPPED_FILE) > 0.5

@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from ..spectrum import window_2d
-from .light import luminance
-from .model import FitCamera
+from clothscope.core.fourier import window_2d
+from clothscope.core.imageio import luminance
+from clothscope.fit.model import FitCamera
 
 #: lattice peaks searched between these periods (px of a 256 px image; scaled with the image);
 #: below about 4 px the phase gradient aliases on the working image's pixel grid

@@ -31,12 +31,13 @@ import numpy as np
 from PIL import Image
 from scipy import ndimage
 
-from ..atomic import write_json, write_with
-from ..imageio import linear_to_srgb, write_png
-from .fabrics import FABRICS, PLAIN, TWILL21, TWILL31, FabricSpec, knit_height, pile_height, woven_layers
-from .generate import (CLOTH_HALF, PATTERNS, HeightField, displaced_grid, encode_normal, fold_map, quantise_height,
-                       truth_maps, truth_paths)
-from .scene import Camera, cloth_bsdf, cloth_mesh, effects_for, render, scene_dict
+from clothscope.core.atomic import write_json, write_with
+from clothscope.core.imageio import linear_to_srgb, write_png
+from clothscope.core.mesh import cloth_mesh
+from clothscope.core.truth import encode_normal, truth_paths
+from clothscope.synth.fabrics import FABRICS, PLAIN, TWILL21, TWILL31, FabricSpec, knit_height, pile_height, woven_layers
+from clothscope.synth.generate import CLOTH_HALF, PATTERNS, HeightField, displaced_grid, fold_map, quantise_height, truth_maps
+from clothscope.synth.scene import Camera, cloth_bsdf, effects_for, render, scene_dict
 
 FIELD_VERSION = 1
 
@@ -344,7 +345,7 @@ def synthesize_field(fabric: str, number: int, seed: int, spp: int = 16, max_mes
         raise ValueError(f"image number must be >= 0, got {number}")
     if not 0.0 < scale <= 1.0:
         raise ValueError(f"scale must be in (0, 1], got {scale}")
-    from ..runtime import mitsuba_for, runtime_metadata
+    from clothscope.core.runtime import mitsuba_for, runtime_metadata
 
     started = time.perf_counter()
     spec, rng = FIELD_FABRICS[fabric], field_rng(seed, fabric, number)

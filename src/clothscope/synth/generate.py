@@ -16,10 +16,12 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from ..atomic import write_json, write_with
-from ..imageio import linear_to_srgb, write_png
-from .fabrics import BASKET, FABRICS, PLAIN, SATIN5, FabricSpec, knit_height, pile_height, woven_height
-from .scene import Camera, Light, cloth_bsdf, cloth_mesh, effects_for, render, scene_dict
+from clothscope.core.atomic import write_json, write_with
+from clothscope.core.imageio import linear_to_srgb, write_png
+from clothscope.core.mesh import cloth_mesh
+from clothscope.core.truth import encode_normal, truth_paths
+from clothscope.synth.fabrics import BASKET, FABRICS, PLAIN, SATIN5, FabricSpec, knit_height, pile_height, woven_height
+from clothscope.synth.scene import Camera, Light, cloth_bsdf, effects_for, render, scene_dict
 
 #: Six dyes (linear RGB), shared by every class.
 DYES: dict[str, tuple[float, float, float]] = {
@@ -229,7 +231,7 @@ def synthesize(fabric: str, dye_index: int, seed: int, resolution: int = 256, sp
         raise ValueError(f"unknown fabric class {fabric!r}; known: {', '.join(FABRICS)}")
     if not 0 <= dye_index < len(DYES):
         raise ValueError(f"dye_index must be in 0..{len(DYES) - 1}, got {dye_index}")
-    from ..runtime import mitsuba_for, runtime_metadata
+    from clothscope.core.runtime import mitsuba_for, runtime_metadata
 
     started = time.perf_counter()
     spec, dye = FABRICS[fabric], list(DYES)[dye_index]
@@ -286,28 +288,6 @@ def synthesize(fabric: str, dye_index: int, seed: int, resolution: int = 256, sp
         "provenance": {"render_seconds": round(time.perf_counter() - started, 3), **runtime_metadata(mi)},
     }
     return Synthetic(image=image, maps=maps, fold=fold.astype(np.float32), truth=truth)
-
-
-def encode_normal(normal: np.ndarray) -> np.ndarray:
-    """Tangent-space unit normals -> the usual RGB normal-map encoding in [0, 1]."""
-    return 0.5 * normal + 0.5
-
-
-def decode_normal(encoded: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`encode_normal`, renormalised to unit length."""
-    normal = 2.0 * np.asarray(encoded, dtype=np.float32) - 1.0
-    return normal / np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-6)
-
-
-def truth_paths(image_path: Path) -> dict[str, Path]:
-    """Where the ground truth of ``<id>.png`` lives: beside it, marked ``.truth``."""
-    stem = image_path.with_suffix("")
-    return {
-        "json": Path(f"{stem}.truth.json"),
-        "normal": Path(f"{stem}.truth-normal.png"),
-        "height": Path(f"{stem}.truth-height.png"),
-        "fold": Path(f"{stem}.truth-fold.npy"),
-    }
 
 
 def quantise_height(height: np.ndarray, lo: float, hi: float, bits: int = 8) -> np.ndarray:

@@ -18,9 +18,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..atomic import write_text
-from ..imageio import read_png
-from .generate import truth_paths
+from clothscope.core.atomic import write_text
+from clothscope.core.imageio import read_png
+from clothscope.core.truth import truth_paths
 
 IMAGE_TOLERANCE = 1.0 / 255.0
 #: Share of values that may exceed IMAGE_TOLERANCE, and by how much at most.

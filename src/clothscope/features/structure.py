@@ -1,6 +1,6 @@
 """Thread-structure descriptor of a scalar field: a fitted relief or shading, a true relief or a photo's luminance.
 
-The paper's features (:mod:`clothscope.spectrum`) keep two peak radii and
+The paper's features (:mod:`clothscope.features.paper`) keep two peak radii and
 heights of the normal map's z spectrum. This module describes the *lattice*
 the threads form, in terms that are invariant by construction:
 
@@ -49,7 +49,7 @@ import numpy as np
 from scipy import ndimage
 from skimage.feature import local_binary_pattern
 
-from .spectrum import centred_spectrum, radius_grid, upper_half_plane
+from clothscope.core.fourier import centred_spectrum, radius_grid, upper_half_plane
 
 #: Ring centres of the radial profile, in units of the fundamental frequency.
 PROFILE_RHO = np.geomspace(0.35, 3.2, 10)

@@ -14,9 +14,17 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 from scipy import ndimage
 
-from .synth.generate import fold_surface
+from clothscope.core.atomic import write_text
+from clothscope.core.imageio import read_exr
+from clothscope.core.mesh import grid_normals
+from clothscope.features.paper import SpectrumSettings
+from clothscope.features.period import thread_period
+from clothscope.fit.model import plane_grid
+from clothscope.fit.stage import STATE_FILE, load_state
+from clothscope.synth.generate import fold_surface
 
 
 def camera_basis(origin: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
@@ -65,7 +73,6 @@ def truth_view_normals(truth: dict[str, Any], resolution: int) -> np.ndarray:
 
 def fit_view_normals(grid: np.ndarray, fov_deg: float, distance: float, resolution: int) -> np.ndarray:
     """(R, R, 3) normals of a fitted (n, n, 3) grid (rows along +y) in the fit camera's frame."""
-    from .synth.scene import grid_normals
 
     origin = np.array([0.0, 0.0, distance])
     basis = camera_basis(origin, np.zeros(3), np.array([0.0, 1.0, 0.0]))
@@ -144,8 +151,7 @@ def period_error(fitted_period_px: float | None, truth: dict[str, Any], scale: f
 
 
 def fitted_period_px(normals: np.ndarray, texels_per_pixel: float) -> float | None:
-    """Thread period (image px) from the spectrum of a fitted normal map (:func:`clothscope.spectrum.thread_period`)."""
-    from .spectrum import SpectrumSettings, thread_period
+    """Thread period (image px) from the spectrum of a fitted normal map (:func:`clothscope.features.period.thread_period`)."""
 
     period = thread_period(normals, SpectrumSettings())
     return None if period is None else float(period / texels_per_pixel)
@@ -153,7 +159,6 @@ def fitted_period_px(normals: np.ndarray, texels_per_pixel: float) -> float | No
 
 def benchmark_seconds(path: str | os.PathLike[str]) -> tuple[float, float]:
     """(wall seconds, peak RSS MB) from a Snakemake ``benchmark:`` file; NaN-free (0 when absent)."""
-    import pandas as pd
 
     if not Path(path).exists():
         return 0.0, 0.0
@@ -190,8 +195,6 @@ def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: st
     ``prepared_status``: the image's prepared ``status.json``; its crop and scale
     put the truth in the frame the fit saw (:func:`in_working_frame`).
     """
-    from .fit.stage import STATE_FILE, load_state
-    from .imageio import read_exr
 
     truth = json.loads(Path(truth_json).read_text(encoding="utf-8"))
     if prepared_status is not None:
@@ -209,7 +212,6 @@ def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: st
         return row | {"reason": state.get("reason", "")}
     fit, _ = load_state(normals_dir)
     material = fit.material
-    from .fit.model import plane_grid
 
     normals = read_exr(normals_dir / "normal.exr")
     period = fitted_period_px(normals, state["texels_per_pixel"])
@@ -312,9 +314,7 @@ def effects_comparison(table: Any, column: str, planned: str, full: str) -> str:
 def write_accuracy_report(images: list[str], fit_dirs: list[str], truth_jsons: list[Any], benchmark_root: str,
                           table: str, summary: str, prepared_statuses: list[str] | None = None) -> int:
     """Evaluate every image and write the CSV table and the Markdown summary atomically."""
-    import pandas as pd
 
-    from .atomic import write_text
 
     statuses = prepared_statuses or [None] * len(images)
     rows = [evaluate_fit(image, fit_dir, truth, {s: os.path.join(benchmark_root, f"fit_{s}", f"{image}.tsv")

@@ -22,10 +22,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 from scipy.special import logsumexp
 
-from . import __version__
-from .atomic import write_json, write_with
+from clothscope import __version__
+from clothscope.classify.qda import VAR_FLOOR, check_posteriors, check_reg, check_subspace, fit_qda
+from clothscope.classify.rows import MIN_TRAIN_PER_CLASS, feature_matrix, labelled_data, posterior_column
+from clothscope.core.atomic import write_json, write_with
 
 #: Marker of the record of a saved model; a record with another is refused.
 MODEL_FORMAT = "clothscope-qda-model/2"
@@ -74,7 +77,7 @@ class QdaParameters:
 
     @classmethod
     def from_pipeline(cls, pipeline: Any) -> QdaParameters:
-        """Read the arrays of a fitted :func:`clothscope.classify.make_qda` pipeline."""
+        """Read the arrays of a fitted :func:`clothscope.classify.qda.make_qda` pipeline."""
         scaler, qda = pipeline.named_steps["scale"], pipeline.named_steps["qda"]
         project = pipeline.named_steps.get("project")
         d = scaler.mean_.shape[0]
@@ -226,3 +229,66 @@ def load_model(folder: str | os.PathLike[str]) -> QdaModel:
         raise ValueError(f"{folder / RECORD_NAME}: model record lacks or garbles {err}") from None
     except ValueError as err:
         raise ValueError(f"{folder / RECORD_NAME}: {err}") from None
+
+
+def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto", subspace: str = "none") -> QdaModel:
+    """Fit :func:`make_qda` on every labelled row (queries are ignored).
+
+    Classes with fewer than :data:`MIN_TRAIN_PER_CLASS` labelled images are
+    left out of the model (noted); feature columns constant over the labelled
+    images are dropped (noted).
+
+    Returns
+    -------
+    QdaModel
+    """
+    reg, subspace = check_reg(reg), check_subspace(subspace)
+    labelled, excluded, notes, used, dropped, X, y = labelled_data(table, feature_columns, MIN_TRAIN_PER_CLASS,
+                                                                     "training QDA")
+    pipeline = fit_qda(reg, X, y, notes, subspace)
+    counts = pd.Series(y).value_counts()
+    return QdaModel(
+        parameters=QdaParameters.from_pipeline(pipeline),
+        classes=[str(c) for c in pipeline.classes_],
+        feature_columns=used,
+        dropped_columns=dropped,
+        reg=reg,
+        subspace=subspace,
+        var_floor=VAR_FLOOR,
+        class_counts={str(c): int(counts[c]) for c in pipeline.classes_},
+        excluded=excluded,
+        notes=notes,
+    )
+
+
+def predict(model: QdaModel, table_rows: pd.DataFrame) -> pd.DataFrame:
+    """Classify rows (typically the unlabelled queries) with a trained model.
+
+    Parameters
+    ----------
+    model
+        From :func:`train_model` or :func:`clothscope.classify.model.load_model`.
+    table_rows
+        Rows with ``image_id`` and the model's feature columns.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``image_id``, ``predicted_class`` and one ``p_<class>`` per model class
+        (posteriors; each row sums to 1).
+    """
+    missing = [c for c in ["image_id", *model.feature_columns] if c not in table_rows.columns]
+    if missing:
+        raise ValueError(f"rows to classify lack column(s) {', '.join(map(repr, missing))}")
+    out_columns = ["image_id", "predicted_class", *map(posterior_column, model.classes)]
+    if len(table_rows) == 0:
+        return pd.DataFrame(columns=out_columns)
+    ids = table_rows["image_id"].astype(str).tolist()
+    X = feature_matrix(table_rows, model.feature_columns, "rows to classify")
+    with np.errstate(all="ignore"):
+        proba = np.exp(model.parameters.log_posteriors(X))
+    check_posteriors(proba, ids)
+    result = pd.DataFrame({"image_id": ids, "predicted_class": [model.classes[k] for k in proba.argmax(axis=1)]})
+    for k, c in enumerate(model.classes):
+        result[posterior_column(c)] = proba[:, k]
+    return result[out_columns]

@@ -2,7 +2,7 @@
 
 Both recompute the Fourier features of every usable image from its normal
 map (an FFT per map and setting, no refitting) and score QDA by leave-one-out
-cross-validation (:func:`clothscope.classify.loocv`). Roughness and specular
+cross-validation (:func:`clothscope.classify.loocv.loocv`). Roughness and specular
 come from the same normal source as the maps.
 
 Paper experiments (Chambers et al., section 4):
@@ -33,10 +33,18 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .atomic import write_text, write_with
-from .classify import loocv
-from .features import STATUS_OK, NormalInput, paper_feature_columns, specular_norm
-from .spectrum import SpectrumResult, SpectrumSettings, analyse_normal_map, count_peaks, peak_features
+from clothscope.classify.loocv import loocv
+from clothscope.core.atomic import write_text, write_with
+from clothscope.features.paper import SpectrumResult, SpectrumSettings, analyse_normal_map, count_peaks, peak_features
+from clothscope.features.table import (
+    STATUS_OK,
+    NormalInput,
+    load_normal_input,
+    paper_feature_columns,
+    read_table,
+    spectrum_settings,
+    specular_norm,
+)
 
 
 @dataclass(frozen=True)
@@ -291,7 +299,6 @@ def load_maps(table_path: str | os.PathLike[str], source: str, images: dict[str,
 
     ``images`` maps an image id to its sheet ``path`` and ``fit_dir`` (the fit_normals folder).
     """
-    from .features import load_normal_input, read_table
 
     table = read_table(table_path)
     wanted = table[(table["status"] == STATUS_OK) & (table["fabric_class"].astype(str).str.strip() != "")]
@@ -305,7 +312,6 @@ def load_maps(table_path: str | os.PathLike[str], source: str, images: dict[str,
 def paper_tables_job(table_path: str, source: str, images: dict[str, dict[str, str]], features_config: dict[str, Any],
                      reg: float | str, md_path: str, csv_path: str, log: Any = None) -> pd.DataFrame:
     """The ``paper_tables`` rule."""
-    from .features import spectrum_settings
 
     maps = load_maps(table_path, source, images)
     table, seconds = timed(paper_table, maps, spectrum_settings(features_config), reg)
@@ -319,7 +325,6 @@ def paper_tables_job(table_path: str, source: str, images: dict[str, dict[str, s
 def sweep_job(table_path: str, source: str, images: dict[str, dict[str, str]], features_config: dict[str, Any],
               sweep_config: dict[str, Any], reg: float | str, csv_path: str, png_path: str, log: Any = None) -> pd.DataFrame:
     """The ``sweep`` rule."""
-    from .features import spectrum_settings
 
     maps = load_maps(table_path, source, images)
     grid = {k: list(sweep_config[k]) for k in ("n_peaks", "alpha", "dc_radius", "peak_size")}

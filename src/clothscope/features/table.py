@@ -2,19 +2,19 @@
 
 One row per sample-sheet image and *source*. A source gives a 2-D map for
 the paper's Algorithm 2 (a normal map, or a grey-level image), a scalar field
-for the thread-structure descriptor (:mod:`clothscope.structure`: a relief, a
+for the thread-structure descriptor (:mod:`clothscope.features.structure`: a relief, a
 shading or a luminance) and, where there is one, the BSDF:
 
 * ``fitted``: the inverse renderer's output, ``results/fit/<id>/normals/``
   (``state.json``: status, ``material`` {base_color, specular, roughness},
   ``texels_per_pixel``, ``runtime.mitsuba_variant``; ``normal.exr``: float32
   unit normals, read raw through Mitsuba's Bitmap, *not* through
-  :func:`clothscope.imageio.decode_exr`, which clamps negative values to 0
+  :func:`clothscope.core.imageio.decode_exr`, which clamps negative values to 0
   as it is meant for radiance; ``height.exr``, the height map the normals are derived from); the
   structure descriptor reads the height map or the normals lit by the fitted light
   (``features.fitted_field``, :func:`lit_normals`);
 * ``truth``: the ground truth beside a synthetic image
-  (:func:`clothscope.synth.generate.truth_paths`: ``<stem>.truth-normal.png``,
+  (:func:`clothscope.core.truth.truth_paths`: ``<stem>.truth-normal.png``,
   ``<stem>.truth-height.png`` and ``<stem>.truth.json``), which needs no fitting;
 * ``photo``: the prepared photo alone, no inverse rendering
   (``results/prepared/<id>/image.exr``): its linear luminance is both the
@@ -35,14 +35,14 @@ Columns (:func:`feature_schema`, an explicit pyarrow schema):
   its Euclidean norm is ``sqrt(3) * s`` (:func:`specular_norm`; a constant
   factor, so the standardised classifier sees exactly the information in
   *s*); ``r_1..r_n``, ``z_1..z_n`` and ``n_peaks``
-  (:func:`clothscope.spectrum.analyse_normal_map`);
+  (:func:`clothscope.features.paper.analyse_normal_map`);
 * this project's thread-structure descriptor, ``s_*``
-  (:data:`clothscope.structure.STRUCTURE_COLUMNS`), and the plain texture
-  baseline ``lbp_*`` (:data:`clothscope.structure.LBP_COLUMNS`), both of the
+  (:data:`clothscope.features.structure.STRUCTURE_COLUMNS`), and the plain texture
+  baseline ``lbp_*`` (:data:`clothscope.features.structure.LBP_COLUMNS`), both of the
   source's field; ``a_*``, the structure descriptor of the fitted shade
-  texture (:data:`clothscope.structure.SHADE_COLUMNS`; zero without one);
+  texture (:data:`clothscope.features.structure.SHADE_COLUMNS`; zero without one);
 * with ``extras: true`` only, the ``x_*`` columns of
-  :func:`clothscope.spectrum.extra_features` and :func:`surface_features`.
+  :func:`clothscope.features.extras.extra_features` and :func:`surface_features`.
   ``x_period_px`` (thread period in photo pixels) is deliberately *not*
   scale-invariant: it separates classes by thread density, and a photo taken
   at another zoom moves it.
@@ -64,14 +64,24 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from . import __version__
-from .atomic import write_with
-from .fit.light import luminance as photo_luminance
-from .fit.normals import SHADE_FILE
-from .imageio import read_exr
-from .spectrum import SpectrumResult, SpectrumSettings, analyse_normal_map, extra_features, plot_analysis
-from .structure import (LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS, StructureSettings, lbp_baseline, shade_features,
-                        structure_features)
+from clothscope import __version__
+from clothscope.core.atomic import write_with
+from clothscope.core.imageio import luminance as photo_luminance
+from clothscope.core.imageio import read_exr, read_png
+from clothscope.core.truth import decode_normal, truth_paths
+from clothscope.features.extras import extra_features
+from clothscope.features.paper import SpectrumResult, SpectrumSettings, analyse_normal_map
+from clothscope.features.plots import plot_analysis, plot_placeholder
+from clothscope.features.structure import (
+    LBP_COLUMNS,
+    SHADE_COLUMNS,
+    STRUCTURE_COLUMNS,
+    StructureSettings,
+    lbp_baseline,
+    shade_features,
+    structure_features,
+)
+from clothscope.fit.normals import SHADE_FILE
 
 #: Where the maps come from: synthetic ground truth, the inverse renderer, or the photo alone.
 NORMAL_SOURCES = ("truth", "fitted", "photo")
@@ -296,8 +306,6 @@ def _unusable(status: str, reason: str, variant: str) -> NormalInput:
 
 def load_truth(image_path: str | os.PathLike[str]) -> NormalInput:
     """Ground-truth normal map and BSDF of a synthetic image; ``missing`` when the files are not there."""
-    from .imageio import read_png
-    from .synth.generate import decode_normal, truth_paths
 
     paths = truth_paths(Path(image_path))
     absent = [str(paths[k]) for k in ("normal", "height", "json") if not paths[k].is_file()]
@@ -445,22 +453,6 @@ def concat_rows(paths: list[str | os.PathLike[str]]) -> pa.Table:
 def read_table(path: str | os.PathLike[str]):
     """A feature table as a pandas DataFrame."""
     return pq.read_table(path).to_pandas()
-
-
-def plot_placeholder(target: str | os.PathLike[str], title: str, reason: str) -> None:
-    """A PNG that says why an image has no spectrum plot, atomically."""
-    import textwrap
-
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(6.0, 3.0))
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(1, 1, 1)
-    ax.axis("off")
-    ax.text(0.5, 0.5, textwrap.fill(reason, 70), ha="center", va="center", fontsize=9, wrap=True)
-    fig.suptitle(title)
-    write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=80))
 
 
 def features_job(image_id: str, fabric_class: str | None, source: str, image_path: str, source_dir: str | None,

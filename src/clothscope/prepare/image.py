@@ -25,11 +25,10 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
-from .atomic import atomic_dir, write_json
-from .fit.light import luminance
-from .imageio import ImageRejected, decode_image, linear_to_srgb, write_exr, write_png
-from .shading import shading
-from .structure import StructureSettings, analysis_field, find_lattice, spectrum
+from clothscope.core.atomic import atomic_dir, write_json
+from clothscope.core.imageio import ImageRejected, decode_image, linear_to_srgb, luminance, write_exr, write_png
+from clothscope.features.structure import StructureSettings, analysis_field, find_lattice, spectrum
+from clothscope.prepare.shading import shading
 
 STATUS_FILE = "status.json"
 IMAGE_FILE = "image.exr"
@@ -73,10 +72,10 @@ class PrepareSettings:
 def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings, field: str = "shading") -> float | None:
     """Thread period (native pixels) of the photo's centred ``window`` square, or None when no lattice stands out.
 
-    The period is that of the strongest peak of :func:`clothscope.structure.find_lattice`
+    The period is that of the strongest peak of :func:`clothscope.features.structure.find_lattice`
     (the descriptor's peak test, :data:`PERIOD_PEAK_FRACTION`) at native resolution, on
     the luminance or on the shading with the yarn colours divided out
-    (:func:`clothscope.shading.shading`), whose strongest pattern is the threads'
+    (:func:`clothscope.prepare.shading.shading`), whose strongest pattern is the threads'
     rather than a colour repeat.
     """
     square = centred(rgb, window)[..., :3]

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageOps
 
-from .atomic import write_with
+from clothscope.core.atomic import write_with
+from clothscope.core.runtime import ensure_libllvm
 
 EXR_SUFFIXES = {".exr"}
 #: Pillow tile raw modes of 16-bit colour PNGs, which Pillow itself truncates to 8 bit.
@@ -101,7 +102,6 @@ def _decode_png16(path: Path) -> np.ndarray:
 
 
 def _mitsuba_scalar():
-    from .runtime import ensure_libllvm
 
     ensure_libllvm()
     import mitsuba as mi
@@ -295,3 +295,8 @@ def write_exr(target: str | os.PathLike[str], data: np.ndarray) -> None:
         raise ValueError(f"refusing to write non-finite values to {target}")
     with _thread_pool_of_two():
         write_with(target, lambda tmp: mi.Bitmap(data).write(str(tmp)))
+
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    """Rec. 709 luminance of a linear (H, W, 3) image."""
+    return rgb @ np.array([0.2126, 0.7152, 0.0722])

@@ -23,7 +23,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.cluster.vq import ClusterError, kmeans2
 
-from .fit.light import luminance
+from clothscope.core.imageio import luminance
 
 #: most dye groups looked for
 MAX_COLOURS = 3

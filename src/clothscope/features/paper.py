@@ -111,16 +111,13 @@ and colour invariant summaries kept apart from the paper's feature set.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import ndimage
 
-from .atomic import write_with
+from clothscope.core.fourier import WINDOWS, centred_spectrum, radius_grid, upper_half_plane
 
-#: Windows :class:`SpectrumSettings` accepts.
-WINDOWS = ("hann", "none")
 #: Radius normalisations :class:`SpectrumSettings` accepts (see the module docstring).
 RADIUS_NORMALISATIONS = ("max", "strong_max", "strongest")
 #: Peak counts :class:`SpectrumSettings` accepts for the ``n_peaks`` feature.
@@ -349,41 +346,11 @@ def z_component(normal: np.ndarray) -> np.ndarray:
     return z
 
 
-def window_2d(size: int, kind: str) -> np.ndarray:
-    """Separable (size, size) window: ``"hann"`` or ``"none"`` (all ones)."""
-    if kind == "none":
-        return np.ones((size, size))
-    if kind == "hann":
-        w = np.hanning(size)
-        return np.outer(w, w)
-    raise ValueError(f"unknown window {kind!r}; expected one of {', '.join(WINDOWS)}")
-
-
-def centred_spectrum(z: np.ndarray, window: str) -> np.ndarray:
-    """Complex FFT of the mean-free, windowed map ``z``, shifted so DC is at ``(N // 2, N // 2)``."""
-    return np.fft.fftshift(np.fft.fft2((z - z.mean()) * window_2d(z.shape[0], window)))
-
-
 def magnitude_spectrum(z: np.ndarray, window: str) -> np.ndarray:
     """Centred FFT magnitude of the mean-free, windowed z map (zeros for a flat map)."""
     if np.ptp(z) < FLAT_TOLERANCE:
         return np.zeros_like(z, dtype=np.float64)
     return np.abs(centred_spectrum(z, window))
-
-
-def radius_grid(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Row offset, column offset and radius (bins) of each bin of a centred spectrum."""
-    offsets = np.arange(size) - size // 2
-    dy, dx = np.meshgrid(offsets, offsets, indexing="ij")
-    return dy, dx, np.hypot(dy, dx)
-
-
-def upper_half_plane(dy: np.ndarray, dx: np.ndarray) -> np.ndarray:
-    """Mask of one half of the point-symmetric spectrum: ``dy < 0``, or ``dy == 0`` and ``dx > 0``.
-
-    ``dy < 0`` is "up" in the image (row 0 at the top), so kept peaks plot above DC.
-    """
-    return (dy < 0) | ((dy == 0) & (dx > 0))
 
 
 def noise_floor(filtered: np.ndarray, annulus: np.ndarray) -> tuple[float, float]:
@@ -600,174 +567,4 @@ def analyse_normal_map(normal: np.ndarray, settings: SpectrumSettings) -> Spectr
         raw_peaks=tuple(order_peaks(raw)),
     )
 
-
-def thread_period(normal: np.ndarray, settings: SpectrumSettings) -> float | None:
-    """Thread period (texels) of a normal map: the strongest peak of the relief's spectrum.
-
-    The z component is about ``1 - |grad h|**2 / 2`` of the relief ``h``: it squares
-    the slopes, so its strongest peak is often a harmonic (twice, or sqrt(2) times,
-    the thread frequency; open weaves show no peak at the thread frequency at all).
-    The in-plane components ``n_x`` and ``n_y`` are linear in the slopes,
-    ``N = -i k H``, but the slopes weight each frequency by ``|k|``, which lifts
-    harmonics and the plain weave's diagonal (sqrt(2) times the thread
-    frequency). So the relief's spectrum is recovered from them,
-    ``|H| = |k . N| / |k|**2``, and its strongest peak is taken. Bins inside the
-    DC disc (``settings.dc_radius_bins``) are ignored; the peak is refined to
-    sub-bin precision (:func:`refine_peak`).
-
-    Parameters
-    ----------
-    normal : numpy.ndarray
-        (N, N, 3) tangent-space unit normals, N >= 16.
-    settings : SpectrumSettings
-        Supplies the window and the DC radius.
-
-    Returns
-    -------
-    float or None
-        The period in texels; None for a flat map.
-
-    Raises
-    ------
-    ValueError
-        If the map is not (N, N, 3), is too small, or holds NaN or infinite values.
-    """
-    array = np.asarray(normal)
-    if array.ndim != 3 or array.shape[-1] != 3:
-        raise ValueError(f"normal map must have shape (H, W, 3), got {array.shape}")
-    n_x, n_y = (z_component(array[..., c]) for c in (0, 1))
-    if np.ptp(n_x) < FLAT_TOLERANCE and np.ptp(n_y) < FLAT_TOLERANCE:
-        return None
-    size = n_x.shape[0]
-    dy, dx, radius = radius_grid(size)
-    spectra = [centred_spectrum(c, settings.window) for c in (n_x, n_y)]
-    relief = np.abs(dx * spectra[0] - dy * spectra[1]) / np.maximum(radius, 1e-9) ** 2  # image rows run along -y
-    relief[radius < settings.dc_radius_bins(size)] = 0.0
-    searched = np.where(upper_half_plane(dy, dx), relief, 0.0)
-    if not searched.max() > 0.0:
-        return None
-    row, col = np.unravel_index(int(np.argmax(searched)), searched.shape)
-    peak_row, peak_col = refine_peak(relief, int(row), int(col), 1)
-    peak_radius = math.hypot(peak_row - size // 2, peak_col - size // 2)
-    return size / peak_radius if peak_radius > 0 else None
-
-
-def _fold_angle(a: float, b: float) -> float:
-    """Angle between two undirected directions (degrees), folded to [0, 90]."""
-    diff = abs(a - b) % 180.0
-    return min(diff, 180.0 - diff)
-
-
-def spectral_flatness(values: np.ndarray) -> float:
-    """Geometric over arithmetic mean of the power ``values`` (1 = white, -> 0 = peaky); 1 if empty or zero."""
-    power = np.asarray(values, dtype=np.float64) ** 2
-    if power.size == 0 or not power.max() > 0:
-        return 1.0
-    power = power / power.max()
-    geometric = float(np.exp(np.mean(np.log(power + 1e-300))))
-    return float(min(1.0, geometric / float(power.mean())))
-
-
-def extra_features(result: SpectrumResult) -> dict[str, float]:
-    """Extra rotation-, scale- and colour-invariant features, kept apart from the paper's set.
-
-    Returns
-    -------
-    dict of str to float
-        ``x_angle_deg``: angle between the two strongest peaks (before
-        merging by radius, so the two equal-radius fundamentals of a plain
-        weave both count) folded to
-        [0, 90] degrees (0 with fewer than two peaks; ~90 for a woven lattice);
-        ``x_low_radius_ratio``: lowest over second-lowest peak radius, in
-        (0, 1] (0 with fewer than two peaks); ``x_strong_to_low_radius``:
-        radius of the strongest peak over the lowest peak radius (~2 when the
-        2nd harmonic dominates; 0 without peaks); ``x_flatness``: spectral
-        flatness of the DC-removed power in the annulus (1 for white noise);
-        ``x_peak_fraction``: share of the annulus magnitude within the chosen
-        peaks' filter windows. All values are finite.
-    """
-    peaks = result.candidates
-    raw = result.raw_peaks
-    angle = _fold_angle(raw[0].angle_deg, raw[1].angle_deg) if len(raw) >= 2 else 0.0
-    radii = sorted(p.radius_bins for p in peaks)
-    low_ratio = radii[0] / radii[1] if len(radii) >= 2 and radii[1] > 0 else 0.0
-    strong_to_low = peaks[0].radius_bins / radii[0] if peaks and radii[0] > 0 else 0.0
-    size = result.magnitude.shape[0]
-    dy, dx, radius = radius_grid(size)
-    annulus = (radius >= result.dc_radius_bins) & (radius <= size / 2)
-    flatness = spectral_flatness(result.magnitude[annulus])
-    total = float(result.magnitude[annulus].sum())
-    fraction = 0.0
-    if total > 0 and result.peaks:
-        near = np.zeros_like(annulus)
-        half = result.peak_size_bins / 2.0
-        for peak in result.peaks:
-            for sign in (1.0, -1.0):
-                row = size // 2 + sign * (peak.row - size // 2)
-                col = size // 2 + sign * (peak.col - size // 2)
-                near |= (np.abs(dy + size // 2 - row) <= half) & (np.abs(dx + size // 2 - col) <= half)
-        fraction = float(result.magnitude[annulus & near].sum()) / total
-    values = {
-        "x_angle_deg": angle,
-        "x_low_radius_ratio": low_ratio,
-        "x_strong_to_low_radius": strong_to_low,
-        "x_flatness": flatness,
-        "x_peak_fraction": fraction,
-    }
-    return {key: float(value) if math.isfinite(value) else 0.0 for key, value in values.items()}
-
-
-def plot_analysis(result: SpectrumResult, target: str | os.PathLike[str], title: str = "", dpi: int = 100) -> None:
-    """Write a 2x2 PNG like the paper's Figure 3, atomically.
-
-    Panels: z map; log spectrum; filtered spectrum after DC removal; the
-    filtered spectrum with the analysis annulus and the chosen peaks (and their
-    mirror twins, hollow) marked.
-
-    Parameters
-    ----------
-    result : SpectrumResult
-        Output of :func:`analyse_normal_map`.
-    target : path
-        PNG file to write.
-    title : str
-        Figure title.
-    dpi : int
-        Resolution of the PNG.
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Circle
-
-    size = result.z_map.shape[0]
-    centre = size // 2
-    fig = Figure(figsize=(8.0, 8.0))
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(2, 2)
-    panels = [
-        (result.z_map, "z component of the normal map", "gray"),
-        (result.log_spectrum, "log |FFT|", "magma"),
-        (result.filtered_spectrum, "DC removed, mean filtered", "magma"),
-        (result.filtered_spectrum, f"peaks ({len(result.peaks)} chosen of {len(result.candidates)})", "magma"),
-    ]
-    for ax, (image, label, cmap) in zip(axes.ravel(), panels):
-        ax.imshow(image, cmap=cmap, interpolation="nearest")
-        ax.set_title(label, fontsize=9)
-        ax.set_xticks([])
-        ax.set_yticks([])
-    ax = axes[1, 1]
-    for radius, style in ((result.dc_radius_bins, "--"), (size / 2, ":")):
-        ax.add_patch(Circle((centre, centre), radius, fill=False, ec="white", ls=style, lw=0.8))
-    for k, peak in enumerate(result.peaks, start=1):
-        ax.plot(peak.col, peak.row, "o", mfc="none", mec="cyan", ms=10)
-        ax.plot(2 * centre - peak.col, 2 * centre - peak.row, "o", mfc="none", mec="cyan", ms=6, alpha=0.5)
-        ax.annotate(f"{k}: r={peak.radius_bins:.1f}, z={peak.height:.2f}", (peak.col, peak.row), color="cyan", fontsize=7,
-                    xytext=(4, -4), textcoords="offset points")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    try:
-        write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi))
-    finally:
-        fig.clf()
 

@@ -6,8 +6,8 @@ from collections.abc import Iterable
 
 import pandas as pd
 
-from .atomic import write_text
-from .prepare import read_status
+from clothscope.core.atomic import write_text
+from clothscope.prepare.image import read_status
 
 
 def prepare_table(prepared_dirs: Iterable[str | os.PathLike[str]]) -> pd.DataFrame:

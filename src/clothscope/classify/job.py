@@ -18,13 +18,16 @@ from typing import Any
 
 import pandas as pd
 
-from . import __version__
-from .atomic import write_json, write_text
-from .classify import POSTERIOR_PREFIX, choose_columns, loocv, predict, split_labelled, train_model, write_reports
-from .feature_sets import classifier_candidates, inverse_rendering_gain, joined_table
-from .features import STATUS_OK, read_table
-from .physics import load_physics_table, physics_for
-from .qda_model import save_model, save_untrained
+from clothscope import __version__
+from clothscope.classify.feature_sets import classifier_candidates, inverse_rendering_gain, joined_table
+from clothscope.classify.loocv import choose_columns, loocv
+from clothscope.classify.model import predict, save_model, save_untrained, train_model
+from clothscope.classify.reports import write_reports
+from clothscope.classify.rows import POSTERIOR_PREFIX, split_labelled
+from clothscope.core.atomic import write_json, write_text
+from clothscope.features.plots import plot_placeholder
+from clothscope.features.table import STATUS_OK, read_table
+from clothscope.physics.materials import load_physics_table, physics_for
 
 
 def _posteriors(row: pd.Series) -> dict[str, float]:
@@ -77,18 +80,18 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         Receives ``accuracy.json``, ``confusion.{csv,png}``, ``per_class.csv``,
         ``predictions.csv`` and ``images.tsv`` (every image's status and prediction).
     model_dir
-        Receives the all-labelled model as data (:func:`clothscope.qda_model.save_model`).
+        Receives the all-labelled model as data (:func:`clothscope.classify.model.save_model`).
     physics_paths
         Image id to the physics JSON to write; every image of the table needs one.
     feature_set
-        Columns the classifier reads (:func:`clothscope.feature_sets.classifier_candidates`);
+        Columns the classifier reads (:func:`clothscope.classify.feature_sets.classifier_candidates`);
         ``auto`` chooses among them inside each LOOCV fold, and for the model on all labelled images.
     comparison_csv
         ``feature_sets.csv``, for the line on what the fit bought over the photo alone (``summary.md``).
     photo_table_path
         The ``photo`` feature table, joined to ``table_path`` by image id (the photo's feature sets need it).
     subspace
-        Feature space of the QDA (:func:`clothscope.classify.make_qda`).
+        Feature space of the QDA (:func:`clothscope.classify.qda.make_qda`).
     settings
         The ``prepare``, ``fit``, ``features`` and ``variant`` config the table's images were
         processed with; recorded in the model so that ``clothscope predict`` processes a photo alike.
@@ -189,8 +192,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
 
 
 def _write_unscored(reports_dir: str | os.PathLike[str], source: str, problems: list[str], queries: pd.DataFrame) -> None:
-    """The report files of :func:`clothscope.classify.write_reports` when LOOCV could not run, saying why."""
-    from .features import plot_placeholder
+    """The report files of :func:`clothscope.classify.reports.write_reports` when LOOCV could not run, saying why."""
 
     out = Path(reports_dir)
     reason = "; ".join(problems)

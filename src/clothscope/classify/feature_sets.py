@@ -4,7 +4,7 @@ A *feature set* is a list of (source, column group) parts: the paper's
 features, this project's structure descriptor, the BSDF, or the plain LBP
 baseline, taken from the ``fitted``, ``photo`` or ``truth`` feature table.
 :func:`compare_feature_sets` scores every set whose sources are present by
-the same LOOCV QDA (:func:`clothscope.classify.loocv`) on the same images:
+the same LOOCV QDA (:func:`clothscope.classify.loocv.loocv`) on the same images:
 those usable in every compared source. Nothing here is tuned on the scores.
 """
 from __future__ import annotations
@@ -16,10 +16,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from .atomic import write_text
-from .classify import loocv
-from .features import STATUS_OK
-from .structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS
+from clothscope.classify.loocv import loocv
+from clothscope.core.atomic import write_text
+from clothscope.features.structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS
+from clothscope.features.table import STATUS_OK
 
 #: Column groups of a feature table.
 BRDF_COLUMNS = ("roughness", "specular_norm")

@@ -1,7 +1,7 @@
 """Ground truth against fitted maps, per class: where the fitted relief's thread structure differs.
 
 For every image with both a true and a fitted relief, the structure
-descriptor (:mod:`clothscope.structure`) is computed on both, and on the
+descriptor (:mod:`clothscope.features.structure`) is computed on both, and on the
 fitted relief once more with no border dropped (the analysis window the
 paper's Algorithm 2 uses), so the report shows what the window fixes. Per
 class it gives how often each relief shows a lattice, the thread period of
@@ -19,9 +19,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .atomic import write_text, write_with
-from .features import load_fitted, load_truth, plot_placeholder
-from .structure import PROFILE_RHO, StructureSettings, structure_features
+from clothscope.core.atomic import write_text, write_with
+from clothscope.features.plots import plot_placeholder
+from clothscope.features.structure import PROFILE_RHO, StructureSettings, structure_features
+from clothscope.features.table import load_fitted, load_truth
 
 PERIOD_TOLERANCE = 0.05
 

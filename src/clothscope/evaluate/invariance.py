@@ -1,7 +1,7 @@
 """Invariance checks of the spectrum features: rotate / zoom a normal map, count changed predictions.
 
 The classifier's features are ``roughness``, ``specular`` and the Fourier peak
-features of the normal map (:mod:`clothscope.spectrum`). A fabric seen at
+features of the normal map (:mod:`clothscope.features.paper`). A fabric seen at
 another orientation or distance should keep its predicted class, so this
 module provides
 
@@ -16,7 +16,7 @@ Recolouring
 -----------
 None of the features takes the colour image: ``roughness`` and ``specular``
 are material parameters and the spectrum features are computed from the
-normal map alone (:func:`clothscope.spectrum.analyse_normal_map` accepts only
+normal map alone (:func:`clothscope.features.paper.analyse_normal_map` accepts only
 a normal / z map). On *ground-truth* normal maps recolouring is therefore an
 identity on the feature vector, by construction, and there is nothing to
 measure. Whether recolouring changes predictions in practice depends on
@@ -33,6 +33,8 @@ from typing import Any
 
 import numpy as np
 from scipy import ndimage
+
+from clothscope.classify.qda import make_qda
 
 #: Interpolation order used for resampling (cubic spline: keeps the thread
 #: harmonics; linear interpolation low-pass filters them noticeably).
@@ -222,7 +224,6 @@ class ChangeReport:
 
 
 def _default_factory() -> Any:
-    from .classify import make_qda
 
     return make_qda()
 
@@ -236,7 +237,7 @@ def prediction_change_rate(
     """Leave-one-out: how often does transforming the held-out image change its predicted class?
 
     For each image ``i`` a fresh model (``model_factory()``, default
-    :func:`clothscope.classify.make_qda`) is fitted on the original features
+    :func:`clothscope.classify.qda.make_qda`) is fitted on the original features
     of all other images and predicts image ``i`` from its original and from
     its transformed features.
 

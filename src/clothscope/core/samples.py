@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from .schema import InputError, load_schema, validate
+from clothscope.core.schema import InputError, load_schema, validate
 
 COLUMNS = ["image_id", "path", "fabric_class", "dye_color", "source"]
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr"}

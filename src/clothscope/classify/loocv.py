@@ -1,0 +1,314 @@
+"""Fabric classification: QDA on per-image features, scored by leave-one-out cross-validation.
+
+The input is a *feature table*: a DataFrame with ``image_id``, ``fabric_class``
+(empty, ``None`` or NaN marks an unlabelled query image) and numeric feature
+columns. Only labelled rows are ever used to fit or score a model; queries
+are classified by a model trained on all labelled rows (paper sections 3.4
+and 4.1).
+
+Small classes are the norm here (the paper has six images per class), so the
+classifier is a standardised, shrunk QDA (:func:`make_qda`) whose per-class
+covariance eigenvalues are floored, which keeps every posterior finite even
+for a class of two images or a feature that is constant within a class.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from sklearn.model_selection import StratifiedKFold
+
+from clothscope.classify.model import predict, train_model
+from clothscope.classify.qda import check_reg, check_subspace, fit_qda, posteriors
+from clothscope.classify.rows import (
+    MIN_LOOCV_PER_CLASS,
+    drop_constant,
+    feature_matrix,
+    labelled_data,
+    posterior_column,
+    split_labelled,
+)
+
+
+@dataclass
+class LoocvResult:
+    """Leave-one-out cross-validation of QDA over the labelled rows.
+
+    ``predictions`` has columns ``image_id``, ``true_class``,
+    ``predicted_class`` and one ``p_<class>`` per class of ``classes``.
+    ``confusion`` is indexed by true class (rows) and predicted class
+    (columns). ``per_class`` has ``class``, ``support``, ``predicted``,
+    ``correct``, ``precision`` and ``recall``. ``excluded`` maps a class
+    with too few labelled images for LOOCV to its image ids.
+    """
+
+    classes: list[str]
+    feature_columns: list[str]
+    dropped_columns: list[str]
+    reg: str | float
+    subspace: str
+    predictions: pd.DataFrame
+    correct: int
+    n: int
+    accuracy: float
+    wilson_low: float
+    wilson_high: float
+    chance_uniform: float
+    chance_majority: float
+    majority_class: str
+    confusion: pd.DataFrame
+    per_class: pd.DataFrame
+    excluded: dict[str, list[str]] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    selected: dict[str, int] = field(default_factory=dict)
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion.
+
+    Parameters
+    ----------
+    successes, n
+        Successes out of ``n`` trials; ``0 <= successes <= n``, ``n > 0``.
+    z
+        Standard-normal quantile (1.96: 95 %).
+
+    Returns
+    -------
+    tuple of float
+        ``(low, high)``, within [0, 1].
+    """
+    if n <= 0:
+        raise ValueError(f"wilson_interval needs n > 0 trials, got n={n}")
+    if not 0 <= successes <= n:
+        raise ValueError(f"wilson_interval needs 0 <= successes <= n, got successes={successes}, n={n}")
+    if not (math.isfinite(z) and z > 0):
+        raise ValueError(f"wilson_interval needs a finite z > 0, got {z}")
+    p = successes / n
+    z2 = z * z
+    denom = 1.0 + z2 / n
+    centre = (p + z2 / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / denom
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+# --------------------------------------------------------------------------- LOOCV
+
+
+#: Folds of the inner cross-validation that chooses among candidate feature sets.
+INNER_FOLDS = 5
+
+
+def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto", subspace: str = "none") -> float:
+    """Accuracy of :func:`make_qda` by stratified k-fold (k = :data:`INNER_FOLDS` or the smallest class) over labelled rows."""
+    labelled, _, notes, _, _, X, y = labelled_data(table, columns, MIN_LOOCV_PER_CLASS, "choosing a feature set")
+    folds = StratifiedKFold(n_splits=min(INNER_FOLDS, int(pd.Series(y).value_counts().min())), shuffle=True, random_state=0)
+    correct = 0
+    for train, test in folds.split(X, y):
+        model = fit_qda(reg, X[train], y[train], notes, subspace)
+        correct += int((model.predict(X[test]) == y[test]).sum())
+    return correct / len(y)
+
+
+def _distinct_candidates(table: pd.DataFrame, candidates: dict[str, list[str]]) -> dict[str, list[str]]:
+    """The candidates less any whose varying columns repeat an earlier one's (same score; ties go to the first).
+
+    A group whose extra columns are constant over the labelled rows (the shade
+    descriptor of fits without a colour texture) is then scored once, not twice.
+    """
+    union = list(dict.fromkeys(c for columns in candidates.values() for c in columns))
+    try:
+        labelled = split_labelled(table)[0]
+        varying = set(drop_constant(feature_matrix(labelled, union, "labelled rows"), union)[0])
+    except (KeyError, ValueError):  # choose_columns reports such problems per candidate
+        return candidates
+    distinct: dict[str, list[str]] = {}
+    seen: set[tuple[str, ...]] = set()
+    for name, columns in candidates.items():
+        key = tuple(c for c in columns if c in varying)
+        if key not in seen:
+            seen.add(key)
+            distinct[name] = columns
+    return distinct
+
+
+def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str = "auto",
+                   subspace: str = "none") -> tuple[str, dict[str, float]]:
+    """The candidate column set with the highest :func:`inner_accuracy` on ``table`` (ties: the first listed), and every score.
+
+    A single candidate is returned as it is, unscored.
+
+    Raises
+    ------
+    ValueError
+        When there is no candidate, or none can be scored.
+    """
+    if len(candidates) <= 1:
+        if not candidates:
+            raise ValueError("no candidate feature set to choose from")
+        return next(iter(candidates)), {}
+    scores: dict[str, float] = {}
+    problems = []
+    for name, columns in _distinct_candidates(table, candidates).items():
+        try:
+            scores[name] = inner_accuracy(table, columns, reg, subspace)
+        except ValueError as err:
+            problems.append(f"{name}: {str(err).splitlines()[0]}")
+    if not scores:
+        raise ValueError(f"no candidate feature set could be scored ({'; '.join(problems)})")
+    order = list(candidates)
+    return max(scores, key=lambda name: (scores[name], -order.index(name))), scores
+
+
+def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
+          select_from: dict[str, list[str]] | None = None, subspace: str = "none") -> LoocvResult:
+    """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
+
+    Each labelled image is classified by a model fitted (scaler included) on
+    all other labelled images. Query rows are ignored. A class with fewer than
+    :data:`MIN_LOOCV_PER_CLASS` labelled images cannot be left out and still
+    be fitted, so it is excluded (recorded in ``excluded`` and ``notes``).
+    Feature columns constant over the labelled images are dropped (noted).
+
+    Parameters
+    ----------
+    table
+        The feature table.
+    feature_columns
+        Names of the numeric feature columns to use (ignored with ``select_from``).
+    reg
+        Shrinkage: ``"auto"`` or a float in [0, 1].
+    select_from
+        Candidate column sets by name: each fold then uses the set that
+        :func:`choose_columns` picks by an inner cross-validation of its
+        *training* images only, so the held-out image never takes part in
+        the choice (``selected`` counts the picks).
+    subspace
+        Feature space of the QDA (:func:`make_qda`).
+
+    Returns
+    -------
+    LoocvResult
+
+    Raises
+    ------
+    ValueError
+        Missing or non-numeric columns, non-finite labelled features, or fewer
+        than two classes with enough images.
+    """
+    reg, subspace = check_reg(reg), check_subspace(subspace)
+    if select_from and len(select_from) == 1:  # nothing to choose: an ordinary LOOCV of that set
+        feature_columns, select_from = next(iter(select_from.values())), None
+    if select_from:
+        feature_columns = list(dict.fromkeys(c for columns in select_from.values() for c in columns))
+    labelled, excluded, notes, used, dropped, X, y = labelled_data(table, feature_columns, MIN_LOOCV_PER_CLASS,
+                                                                     "leave-one-out cross-validation")
+    ids = labelled["image_id"].astype(str).tolist()
+    classes = sorted(set(y))
+    n = len(y)
+
+    proba = np.zeros((n, len(classes)))
+    selected: dict[str, int] = {}
+    for i in range(n):
+        train = np.arange(n) != i
+        if select_from:
+            rows = labelled.iloc[np.flatnonzero(train)]
+            name, _ = choose_columns(rows, select_from, reg, subspace)
+            selected[name] = selected.get(name, 0) + 1
+            model = train_model(rows, select_from[name], reg, subspace)
+            if model.classes != classes:
+                raise ValueError(f"fold {ids[i]}: fitted classes {model.classes} differ from {classes}")
+            proba[i] = predict(model, labelled.iloc[[i]])[[posterior_column(c) for c in classes]].to_numpy(float)[0]
+            continue
+        model = fit_qda(reg, X[train], y[train], notes, subspace)
+        if list(model.classes_) != classes:
+            raise ValueError(f"fold {ids[i]}: fitted classes {list(model.classes_)} differ from {classes}")
+        proba[i] = posteriors(model, X[i : i + 1], [ids[i]])[0]
+    predicted = np.array([classes[k] for k in proba.argmax(axis=1)], dtype=object)
+
+    predictions = pd.DataFrame({"image_id": ids, "true_class": y, "predicted_class": predicted})
+    for k, c in enumerate(classes):
+        predictions[posterior_column(c)] = proba[:, k]
+
+    correct = int((predicted == y).sum())
+    low, high = wilson_interval(correct, n)
+    counts = pd.Series(y).value_counts()
+    majority_class = sorted(c for c in classes if counts[c] == counts.max())[0]
+    confusion = confusion_matrix(y, predicted, classes)
+    per_class, class_notes = per_class_metrics(confusion)
+    notes.extend(class_notes)
+    return LoocvResult(
+        classes=classes,
+        feature_columns=used,
+        dropped_columns=dropped,
+        reg=reg,
+        subspace=subspace,
+        predictions=predictions,
+        correct=correct,
+        n=n,
+        accuracy=correct / n,
+        wilson_low=low,
+        wilson_high=high,
+        chance_uniform=1.0 / len(classes),
+        chance_majority=float(counts.max()) / n,
+        majority_class=majority_class,
+        confusion=confusion,
+        per_class=per_class,
+        excluded=excluded,
+        notes=notes,
+        selected=selected,
+    )
+
+
+def confusion_matrix(true: Any, predicted: Any, classes: list[str]) -> pd.DataFrame:
+    """Counts with rows = true class (index ``true_class``), columns = predicted class."""
+    index = {c: k for k, c in enumerate(classes)}
+    counts = np.zeros((len(classes), len(classes)), dtype=int)
+    for t, p in zip(true, predicted):
+        counts[index[t], index[p]] += 1
+    return pd.DataFrame(
+        counts,
+        index=pd.Index(classes, name="true_class"),
+        columns=pd.Index(classes, name="predicted_class"),
+    )
+
+
+def per_class_metrics(confusion: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
+    """Precision, recall and support per class from a confusion matrix.
+
+    Precision of a class nothing was predicted as is 0 (with a note); recall
+    of a class with no support is 0 (with a note).
+    """
+    counts = confusion.to_numpy()
+    rows, notes = [], []
+    for k, c in enumerate(confusion.index):
+        tp, support, predicted = int(counts[k, k]), int(counts[k].sum()), int(counts[:, k].sum())
+        if predicted == 0:
+            notes.append(f"precision of {c!r} set to 0: no image was predicted as {c!r}")
+        if support == 0:
+            notes.append(f"recall of {c!r} set to 0: no image of {c!r} was scored")
+        rows.append(
+            {
+                "class": c,
+                "support": support,
+                "predicted": predicted,
+                "correct": tp,
+                "precision": tp / predicted if predicted else 0.0,
+                "recall": tp / support if support else 0.0,
+            }
+        )
+    return pd.DataFrame(rows, columns=["class", "support", "predicted", "correct", "precision", "recall"]), notes
+
+
+# --------------------------------------------------------------------------- final model
+
+
+# --------------------------------------------------------------------------- reports
+
+
