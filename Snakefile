@@ -5,9 +5,10 @@
 #   prepare     decode each photo into a linear working image, or reject it
 #   fit         inverse rendering: fit_geometry -> fit_material -> fit_normals
 #   features    Fourier features of each normal map (fitted or truth) -> feature_table
-#   classify    QDA: LOOCV reports, model, query predictions, physics JSON; feature sets
+#   classify    QDA: LOOCV reports, model, query predictions, per-image records; feature sets
 #               side by side (fitted maps against the photo alone);
 #               paper_tables (the paper's 3 experiments) and sweep (settings grid)
+#   physics     ArcSim cloth parameters of each image from its class posteriors
 #   reports     list every rejected image
 from snakemake.utils import min_version
 
@@ -23,6 +24,7 @@ include: "workflow/rules/prepare.smk"
 include: "workflow/rules/fit.smk"
 include: "workflow/rules/features.smk"
 include: "workflow/rules/classify.smk"
+include: "workflow/rules/physics.smk"
 include: "workflow/rules/reports.smk"
 
 

@@ -262,7 +262,8 @@ def test_truth_mode_end_to_end_and_incremental(fresh_clone, tmp_path):
 
 
 def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path):
-    from clothscope.classify.job import classify_job
+    from clothscope.classify.job import RECORDS_FILE, classify_job
+    from clothscope.physics.job import physics_job
 
     settings = SpectrumSettings()
     rows = [feature_row(f"q{i}", "", noisy_map(seed=i), relief(noisy_map(seed=i)), 0.5, 0.4, settings, STRUCTURE, False)
@@ -271,7 +272,8 @@ def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path)
     write_rows(rows, feature_schema(2, False), tmp_path / "table.parquet")
     physics = {r["image_id"]: str(tmp_path / "physics" / f"{r['image_id']}.json") for r in rows}
     out = classify_job(tmp_path / "table.parquet", ROOT / "config" / "physics.yaml", "truth", "auto", tmp_path / "reports",
-                       tmp_path / "model", physics)
+                       tmp_path / "model")
+    assert physics_job(tmp_path / "reports" / RECORDS_FILE, ROOT / "config" / "physics.yaml", physics) == 0
     assert out["accuracy"] is None and out["problems"]
     accuracy = json.loads((tmp_path / "reports" / "accuracy.json").read_text())
     assert accuracy["status"] == "not run" and "LOOCV" in accuracy["reason"]
@@ -297,3 +299,15 @@ def test_photo_loader_reads_luminance_and_skips_rejected_photos(tmp_path):
     assert rejected.status == "skipped" and "too small" in rejected.reason and rejected.field is None
     broken = load_photo(tmp_path / "missing")
     assert broken.status == "failed" and "status.json" in broken.reason
+
+
+def test_physics_job_refuses_records_and_outputs_that_name_other_images(tmp_path):
+    from clothscope.physics.job import physics_job
+
+    records = tmp_path / "records.json"
+    records.write_text(json.dumps([{"image_id": "a", "posteriors": None}]))
+    with pytest.raises(ValueError, match="records.json: no physics output path for image.s. a"):
+        physics_job(records, ROOT / "config" / "physics.yaml", {"b": str(tmp_path / "b.json")})
+    with pytest.raises(ValueError, match="records.json: the feature table has no row for image.s. b"):
+        physics_job(records, ROOT / "config" / "physics.yaml", {"a": str(tmp_path / "a.json"), "b": str(tmp_path / "b.json")})
+    assert not (tmp_path / "a.json").exists()

@@ -1,5 +1,5 @@
 # Stage 5: QDA on the feature table. LOOCV reports, the all-labelled model, predictions for
-# the query images (empty fabric_class) and per-image ArcSim physics; the feature sets side
+# the query images (empty fabric_class) and each image's record (physics.smk reads it); the feature sets side
 # by side (fitted maps, the photo alone, the ground truth); the paper's three experiments
 # and the spectrum-settings sweep (features recomputed from the normal maps).
 # Targets without wildcards, for the configured features.normal_source:
@@ -9,7 +9,6 @@
 rule classify:
     input:
         table=feature_table("{source}"),
-        physics=config["classify"]["physics"],
         comparison=feature_set_comparison,
         photo=lambda wildcards: (
             [] if wildcards.source == "photo" else feature_table("photo")
@@ -18,10 +17,7 @@ rule classify:
         reports=[classify_report(name) for name in CLASSIFY_REPORTS],
         model_arrays=os.path.join(RESULTS, "models", "{source}", "model.npz"),
         model_record=os.path.join(RESULTS, "models", "{source}", "model.json"),
-        physics=[
-            os.path.join(RESULTS, "physics", "{source}", f"{image}.json")
-            for image in IMAGE_IDS
-        ],
+        records=reports_path("{source}", "records.json"),
     log:
         os.path.join(RESULTS, "logs", "classify", "{source}.log"),
     conda:
@@ -33,7 +29,7 @@ rule classify:
     params:
         reg=config["classify"]["reg"],
         subspace=config["classify"]["subspace"],
-        images=IMAGE_IDS,
+        physics=config["classify"]["physics"],
         feature_set=config["classify"]["feature_set"],
         settings={key: config[key] for key in ("prepare", "fit", "features", "variant")},
     script:

@@ -1,4 +1,4 @@
-"""Snakemake job: LOOCV reports, the all-labelled model, query predictions, physics JSON (clothscope.classify.job)."""
+"""Snakemake job: LOOCV reports, the all-labelled model, query predictions, per-image records (clothscope.classify.job)."""
 import os
 
 from clothscope.classify.job import classify_job
@@ -7,12 +7,11 @@ from clothscope.core.joblog import job_log
 with job_log(snakemake.log[0], "classify") as log:
     classify_job(
         snakemake.input.table,
-        snakemake.input.physics,
+        snakemake.params.physics,
         snakemake.wildcards.source,
         snakemake.params.reg,
         os.path.dirname(snakemake.output.reports[0]),
         os.path.dirname(snakemake.output.model_arrays),
-        dict(zip(snakemake.params.images, snakemake.output.physics)),
         log,
         feature_set=snakemake.params.feature_set,
         subspace=snakemake.params.subspace,

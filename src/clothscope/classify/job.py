@@ -1,9 +1,10 @@
-"""The ``classify`` rule: LOOCV reports, the all-labelled model, query predictions and physics JSON.
+"""The ``classify`` rule: LOOCV reports, the all-labelled model, query predictions and each image's record.
 
 Only rows with status ``ok`` are scored, trained on or predicted; every other
-image still gets a physics JSON that records its status and reason.
+image still gets a record (:data:`RECORDS_FILE`) that gives its status and reason,
+which the ``physics`` rule turns into its physics JSON (:mod:`clothscope.physics.job`).
 
-Posteriors behind each image's physics parameters:
+Posteriors in each image's record:
 
 * labelled images scored by LOOCV: their leave-one-out posteriors (the model
   never saw the image), ``posterior_source: loocv``;
@@ -27,7 +28,9 @@ from clothscope.classify.rows import POSTERIOR_PREFIX, split_labelled
 from clothscope.core.atomic import write_json, write_text
 from clothscope.features.plots import plot_placeholder
 from clothscope.features.table import STATUS_OK, read_table
-from clothscope.physics.materials import load_physics_table, physics_for
+
+#: Per-image records (status, prediction, posteriors) in the reports folder, read by the ``physics`` rule.
+RECORDS_FILE = "records.json"
 
 
 def _posteriors(row: pd.Series) -> dict[str, float]:
@@ -60,7 +63,7 @@ def write_summary(reports_dir: str | os.PathLike[str], title: str, feature_set: 
 
 def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.PathLike[str], source: str, reg: float | str,
                  reports_dir: str | os.PathLike[str], model_dir: str | os.PathLike[str],
-                 physics_paths: dict[str, str], log: Any = None, feature_set: str = "auto",
+                 log: Any = None, feature_set: str = "auto",
                  comparison_csv: str | os.PathLike[str] | None = None,
                  photo_table_path: str | os.PathLike[str] | None = None, subspace: str = "none",
                  settings: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -71,18 +74,17 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     table_path
         The feature table (Parquet).
     physics_path
-        ``config/physics.yaml``.
+        ``config/physics.yaml``, recorded in the model for ``clothscope predict``.
     source
         ``truth`` or ``fitted`` (for titles and records).
     reg
         QDA shrinkage, ``"auto"`` or a number in [0, 1].
     reports_dir
         Receives ``accuracy.json``, ``confusion.{csv,png}``, ``per_class.csv``,
-        ``predictions.csv`` and ``images.tsv`` (every image's status and prediction).
+        ``predictions.csv``, ``images.tsv`` (every image's status and prediction) and
+        :data:`RECORDS_FILE` (each image's record for the ``physics`` rule).
     model_dir
         Receives the all-labelled model as data (:func:`clothscope.classify.model.save_model`).
-    physics_paths
-        Image id to the physics JSON to write; every image of the table needs one.
     feature_set
         Columns the classifier reads (:func:`clothscope.classify.feature_sets.classifier_candidates`);
         ``auto`` chooses among them inside each LOOCV fold, and for the model on all labelled images.
@@ -100,7 +102,6 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     if photo_table_path and source != "photo":
         tables["photo"] = read_table(photo_table_path)
     table = joined_table(tables)
-    physics_table = load_physics_table(physics_path)
     candidates = classifier_candidates(feature_set, source, table.columns)
     ok = table[table["status"] == STATUS_OK]
     labelled, queries = split_labelled(ok)
@@ -147,7 +148,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     rest_predictions = predict(model, rest) if model is not None else pd.DataFrame(columns=["image_id", "predicted_class"])
     model_rows = pd.concat([query_predictions, rest_predictions], ignore_index=True).set_index("image_id")
 
-    summary = []
+    summary, records = [], []
     for _, row in table.iterrows():
         image_id = str(row["image_id"])
         label = str(row["fabric_class"] or "").strip()
@@ -155,7 +156,6 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
             "image_id": image_id, "fabric_class": label, "normal_source": source, "status": row["status"],
             "reason": row["reason"], "config_hash": row["config_hash"], "mitsuba_variant": row["mitsuba_variant"],
             "clothscope_version": __version__, "posterior_source": None, "predicted_class": None, "posteriors": None,
-            "physics": None,
         }
         if row["status"] == STATUS_OK and image_id not in loo.index and image_id not in model_rows.index:
             record["reason"] = "; ".join(problems) or "not classified"
@@ -167,18 +167,13 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
             posteriors = _posteriors(prediction)
             record["predicted_class"] = str(prediction["predicted_class"])
             record["posteriors"] = posteriors
-            record["physics"] = physics_for(posteriors, physics_table)
-        if image_id not in physics_paths:
-            raise ValueError(f"no physics output path for image {image_id!r}")
-        write_json(physics_paths[image_id], record)
+        records.append(record)
         split = "excluded" if row["status"] != STATUS_OK else ("query" if image_id in query_ids else record["posterior_source"] or "unclassified")
         summary.append({"image_id": image_id, "fabric_class": label, "status": row["status"], "split": split,
                         "predicted_class": record["predicted_class"] or "",
                         "posterior": f"{max(record['posteriors'].values()):.6f}" if record["posteriors"] else "",
                         "reason": record["reason"]})
-    missing = sorted(set(physics_paths) - set(table["image_id"].astype(str)))
-    if missing:
-        raise ValueError(f"feature table has no row for image(s) {', '.join(missing)}")
+    write_json(Path(reports_dir) / RECORDS_FILE, records)
     write_text(Path(reports_dir) / "images.tsv", pd.DataFrame(summary).to_csv(sep="\t", index=False, lineterminator="\n"))
     if log is not None:
         for problem in problems:

@@ -89,7 +89,7 @@ def _check_finite(value: Any, where: str = "") -> None:
             _check_finite(item, f"{where}[{i}]")
 
 
-def write_json(target: str | os.PathLike[str], data: dict[str, Any]) -> None:
+def write_json(target: str | os.PathLike[str], data: dict[str, Any] | list[Any]) -> None:
     """Write ``data`` as indented JSON atomically; non-finite numbers are refused."""
     _check_finite(data)
     write_text(target, json.dumps(data, indent=2, sort_keys=True, allow_nan=False) + "\n")

@@ -1,0 +1,26 @@
+# Stage 6: each image's ArcSim material (config/physics.yaml) from the classifier's
+# per-image records: the likeliest class's measured parameters, with the
+# posterior-weighted mean and spread. Target: physics_outputs(source).
+
+
+rule physics:
+    input:
+        records=reports_path("{source}", "records.json"),
+        physics=config["classify"]["physics"],
+    output:
+        [
+            os.path.join(RESULTS, "physics", "{source}", f"{image}.json")
+            for image in IMAGE_IDS
+        ],
+    log:
+        os.path.join(RESULTS, "logs", "physics", "{source}.log"),
+    conda:
+        "../../environment.yml"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    params:
+        images=IMAGE_IDS,
+    script:
+        "../scripts/physics.py"
