@@ -23,90 +23,19 @@ follows Algorithm 2 of the paper:
 7. polar coordinates, angle dropped, radius truncated to an integer; peaks
    sharing a truncated radius are merged keeping the highest one;
 8. radii are normalised by a reference radius: the paper's ``R_m`` (largest
-   radius) or, by default here, a robust variant (see "Robust normalisation"
-   below);
+   radius) or, by default here, a robust variant that uses the strong peaks
+   only (``strong_fraction`` of the highest peak's height);
 9. peaks sorted by height (descending), then radius (ascending), heights
    normalised by the largest, and the first
    ``n_peaks`` are kept, padded with zeros.
 
-Choices the paper leaves open, and what is done here
-----------------------------------------------------
-* **Units and ``reference_resolution``.** The paper gives the DC radius and
-  the peak size in "spatial frequency" (frequency bins) but never states the
-  resolution of its normal maps. Bins scale with the map width ``N`` (a thread
-  of period ``p`` texels sits at ``N / p`` bins), so both sizes are defined at
-  a reference width and scaled by ``N / reference_resolution``: the same
-  settings then select the same physical frequencies at any map size. The
-  default ``reference_resolution = 1024`` is a **guess**: it is a common
-  texture size for inverse-rendered normal maps, and it is the choice under
-  which the paper's DC radius of 20 leaves our threads alone. At 256 texels it
-  becomes a 5-bin DC disc (periods longer than ~51 texels removed), below
-  the lowest thread fundamental of the synthetic set (period 14 texels,
-  ~18 bins), with margin for a 1.5x zoom (~12 bins). A reference of 512 would
-  give a 10-bin disc, which eats into zoomed-in canvas and gauze fundamentals
-  and makes the mean filter (7.5 -> 7 bins) blur them into the disc edge.
-* **Peak size.** The scaled size is rounded to the nearest odd integer (at
-  least 1 bin), so the mean (``uniform_filter``) and maximum filters are
-  centred on a bin; both treat the spectrum as periodic (``mode="wrap"``).
-* **Annulus.** Floor statistics and peaks are restricted to
-  ``dc_radius <= r <= N/2``: beyond the inscribed Nyquist circle only some
-  directions are sampled, so peaks there would depend on the rotation.
-* **Peak heights ``z``** are *normalised* heights (section 3.4): the height
-  of the filtered spectrum above the noise-floor mean in floor standard
-  deviations (kept as ``Peak.snr``), divided by that of the highest peak
-  found, so ``z`` lies in (0, 1] and ``z_1 == 1`` whenever a peak exists
-  (0 otherwise). The ratio is unchanged when the z map is multiplied by a
-  constant, and, unlike the raw signal-to-noise ratio, it hardly moves when
-  the map is zoomed or cropped: zooming in packs the harmonics into fewer
-  bins, which raises the floor standard deviation over the fixed annulus and
-  lowers raw SNRs (docs/design.md, "Strong peaks"), whereas the relative
-  heights of peaks are a property of the weave. (Only approximately invariant
-  to scaling the surface *tilt*: ``n_z = 1 / sqrt(1 + |grad h|^2)`` is not
-  linear in it.)
-* **Ordering.** Algorithm 2 sorts by ``z`` then ``r``; the running text says
-  "by radial distance, then by height". We follow Algorithm 2 (strongest
-  first): the strongest peaks are the thread fundamentals (or, for thin-yarn
-  open weaves, their 2nd harmonic), while sorting by radius would let any
-  weak low-frequency bump next to the DC disc take the first slot.
-* **Sub-bin radius.** Each peak position is refined by the power-weighted
-  centroid of the unfiltered spectrum in a 3x3 bin window around its largest
-  bin near the filtered maximum; the algorithm's integer radius is the
-  truncation of that refined radius.
-* **``n_peaks`` feature** is, in the paper's definition
-  (``peak_count="all"``), the number of distinct (integer) radii found,
-  i.e. the size of the set ``S`` after merging, *before* truncation to
-  ``settings.n_peaks``; by default here only the strong peaks are counted
-  (below).
-* **Flat maps.** A map whose values vary by less than ``FLAT_TOLERANCE`` has
-  no spectrum to speak of (rounding noise only) and yields no peaks.
+The choices the paper leaves open (units of the DC radius and peak size, the annulus,
+normalised heights, ordering, sub-bin radii) and the strong-peak definitions used by
+default are explained in docs/design.md, "Algorithm 2: what the paper leaves open".
 
-Robust normalisation (the default) and the paper-faithful option
-----------------------------------------------------------------
-With the paper's definitions (``radius_normalisation="max"``,
-``peak_count="all"``; ``settings.paper()``), ``R_m`` and ``n_peaks`` depend on
-which *weak* harmonics happen to clear the ``alpha`` threshold: rotating a map
-(the Nyquist-disc annulus and the Hann window see other bins) or zooming it
-(harmonics move across the annulus edge) adds or removes weak peaks, ``R_m``
-jumps to another harmonic and ``n_peaks`` moves by tens (49 -> 27 on one gauze
-map). The defaults therefore use only the *strong* peaks, those whose height
-is at least ``strong_fraction`` (0.5) of the highest peak's:
-
-* ``radius_normalisation="strong_max"``: ``R`` = largest integer radius among
-  the strong peaks (Algorithm 2's "largest radius", restricted to peaks that
-  are unambiguously part of the weave). Every strong peak has ``r <= 1``; a
-  weak peak that is still among the first ``n_peaks`` kept may have ``r > 1``.
-* ``peak_count="strong"``: ``n_peaks`` = number of strong peaks (after the
-  merge by integer radius).
-
-The rest of Algorithm 2 (threshold, merge, order, the ``r``/``z`` features)
-is unchanged. ``"strongest"`` (``R`` = radius of the highest peak, so
-``r_1 == 1``) is also available; it was *less* invariant on the synthetic set.
-
-What the strong-peak definitions changed on the synthetic ground-truth maps,
-and how ``strong_fraction`` was chosen: docs/design.md, "Strong peaks".
-
-Extra features (:func:`extra_features`, prefixed ``x_``) are rotation, scale
-and colour invariant summaries kept apart from the paper's feature set.
+Extra features are in :mod:`clothscope.features.extras`, the thread period in
+:mod:`clothscope.features.period` and the figures in :mod:`clothscope.features.plots`.
+The module is over 400 lines because it holds one algorithm, Algorithm 2, whole.
 """
 from __future__ import annotations
 
