@@ -16,6 +16,17 @@ SCHEMAS = ROOT / "workflow" / "schemas"
 SYNTHETIC = ROOT / "data" / "synthetic"
 
 
+def decode(path, **limits):
+    """``decode_image`` with the config schema's ``prepare`` limits, except those given in ``limits``."""
+    from clothscope.core.config import schema_defaults
+    from clothscope.core.imageio import decode_image
+
+    prepare = schema_defaults()["prepare"]
+    defaults = {"min_px": prepare["min_input_px"], "max_megapixels": prepare["max_megapixels"],
+                "clip_threshold": prepare["clip_threshold"]}
+    return decode_image(path, **(defaults | limits))
+
+
 @pytest.fixture(scope="session")
 def fresh_clone(tmp_path_factory) -> Path:
     """The files a fresh clone would have (tracked plus untracked, not ignored), copied to a temp dir."""

@@ -16,10 +16,11 @@ from conftest import ROOT, SCHEMAS, SYNTHETIC, job_counts, non_finite_outputs, r
 
 from clothscope.classify.model import load_model
 from clothscope.classify.paper_tables import PAPER_EXPERIMENTS, truncated_features
+from clothscope.core.config import settings as config_settings
 from clothscope.core.imageio import read_png, write_exr
 from clothscope.core.schema import load_schema, validate
 from clothscope.core.truth import decode_normal, truth_paths
-from clothscope.features.paper import SpectrumSettings, analyse_normal_map
+from clothscope.features.paper import analyse_normal_map
 from clothscope.features.structure import LBP_COLUMNS, STRUCTURE_COLUMNS, StructureSettings
 from clothscope.features.table import (
     EXTRA_COLUMNS,
@@ -36,7 +37,7 @@ from clothscope.features.table import (
     write_rows,
 )
 
-SETTINGS = SpectrumSettings()
+SETTINGS = config_settings("features")
 FEATURE_DEFAULTS = validate({}, load_schema(SCHEMAS / "config.schema.yaml"), "config")["features"]
 STRUCTURE = StructureSettings(**FEATURE_DEFAULTS["structure"])
 
@@ -96,7 +97,7 @@ def test_unusable_row_is_zero_filled_with_reason():
 
 def test_table_parquet_round_trip(tmp_path):
     schema = feature_schema(3, True)
-    settings = SpectrumSettings(n_peaks=3)
+    settings = config_settings("features", n_peaks=3)
     rows = [feature_row("a", "canvas", noisy_map(), relief(noisy_map()), 0.5, 0.4, settings, STRUCTURE, True, config_hash="abc"),
             unusable_row("q", None, settings, True, "missing", "no ground truth")]
     paths = []
@@ -111,7 +112,7 @@ def test_table_parquet_round_trip(tmp_path):
     assert list(frame["status"]) == ["ok", "missing"] and frame.loc[1, "fabric_class"] == ""
     assert np.isfinite(frame.select_dtypes("number").to_numpy()).all()
     other = tmp_path / "other.parquet"
-    write_rows([feature_row("c", "satin", flat_map(), relief(flat_map()), 0.2, 0.7, SpectrumSettings(n_peaks=2), STRUCTURE, False)],
+    write_rows([feature_row("c", "satin", flat_map(), relief(flat_map()), 0.2, 0.7, config_settings("features", n_peaks=2), STRUCTURE, False)],
                feature_schema(2, False), other)
     with pytest.raises(ValueError, match="schema differs"):
         concat_rows([paths[0], other])
@@ -179,9 +180,9 @@ def test_features_job_writes_row_and_plot_for_missing_truth(tmp_path):
 
 def test_truncated_features_equal_a_fresh_analysis():
     normals = truth_normals("broadcloth_red")
-    wide = analyse_normal_map(normals, SpectrumSettings(n_peaks=4, alpha=2.0))
+    wide = analyse_normal_map(normals, config_settings("features", n_peaks=4, alpha=2.0))
     for n in (1, 2, 3):
-        assert truncated_features(wide, n) == analyse_normal_map(normals, SpectrumSettings(n_peaks=n, alpha=2.0)).features
+        assert truncated_features(wide, n) == analyse_normal_map(normals, config_settings("features", n_peaks=n, alpha=2.0)).features
 
 
 def test_paper_experiments_are_the_papers():
@@ -189,21 +190,13 @@ def test_paper_experiments_are_the_papers():
         (5, 2, 2.0, 20.0, 15.0, 0.60), (7, 2, 3.0, 20.0, 25.0, 0.38), (6, 4, 3.0, 20.0, 15.0, 0.583)]
 
 
-def test_features_and_classify_config_keys_are_commented_with_defaults():
+def test_features_and_classify_config_keys_take_the_schema_defaults():
     schema = load_schema(SCHEMAS / "config.schema.yaml")
     config = validate(yaml.safe_load((ROOT / "config/config.yaml").read_text()), schema, "config")
     defaults = validate({}, schema, "config")
     assert config["features"] == defaults["features"] and config["classify"] == defaults["classify"]
     assert defaults["features"]["normal_source"] == "fitted" and defaults["features"]["extras"] is False
-    assert SpectrumSettings(**{k: v for k, v in defaults["features"].items()
-                               if k not in ("normal_source", "extras", "structure", "fitted_field")}) == SETTINGS
-    text = (ROOT / "config/config.yaml").read_text().splitlines()
-    keys = [*schema["properties"]["features"]["properties"], *schema["properties"]["classify"]["properties"],
-            *schema["properties"]["classify"]["properties"]["sweep"]["properties"],
-            *schema["properties"]["features"]["properties"]["structure"]["properties"]]
-    for key in keys:
-        line = next(line for line in text if line.strip().startswith(f"{key}:"))
-        assert "#" in line, f"config key {key} has no comment"
+    assert config_settings("features", defaults) == SETTINGS
 
 
 # --------------------------------------------------------------------------- the workflow, truth mode
@@ -265,14 +258,14 @@ def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path)
     from clothscope.classify.job import RECORDS_FILE, classify_job
     from clothscope.physics.job import physics_job
 
-    settings = SpectrumSettings()
+    settings = config_settings("features")
     rows = [feature_row(f"q{i}", "", noisy_map(seed=i), relief(noisy_map(seed=i)), 0.5, 0.4, settings, STRUCTURE, False)
             for i in range(3)]
     rows.append(unusable_row("bad", "canvas", settings, False, "failed", "fit_normals: diverged"))
     write_rows(rows, feature_schema(2, False), tmp_path / "table.parquet")
     physics = {r["image_id"]: str(tmp_path / "physics" / f"{r['image_id']}.json") for r in rows}
     out = classify_job(tmp_path / "table.parquet", ROOT / "config" / "physics.yaml", "truth", "auto", tmp_path / "reports",
-                       tmp_path / "model")
+                       tmp_path / "model", feature_set="auto", subspace="none")
     assert physics_job(tmp_path / "reports" / RECORDS_FILE, ROOT / "config" / "physics.yaml", physics) == 0
     assert out["accuracy"] is None and out["problems"]
     accuracy = json.loads((tmp_path / "reports" / "accuracy.json").read_text())
@@ -287,9 +280,9 @@ def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path)
 
 def test_photo_loader_reads_luminance_and_skips_rejected_photos(tmp_path):
     from clothscope.features.table import load_photo
-    from clothscope.prepare.image import PrepareSettings, prepare_image
+    from clothscope.prepare.image import prepare_image
 
-    prepare_image("a", SYNTHETIC / "canvas" / "canvas_red.png", tmp_path / "a", PrepareSettings(working_resolution=64))
+    prepare_image("a", SYNTHETIC / "canvas" / "canvas_red.png", tmp_path / "a", config_settings("prepare", working_resolution=64, scale="frame"))
     photo = load_photo(tmp_path / "a")
     assert photo.status == "ok" and photo.field.shape == (64, 64) and photo.field is photo.normals
     assert photo.roughness == 0.0 and np.isfinite(photo.field).all() and photo.field.max() > 0

@@ -7,12 +7,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from conftest import SCHEMAS, non_finite_outputs
+from conftest import SCHEMAS, decode, non_finite_outputs
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
-from clothscope.core.imageio import decode_image
+from clothscope.core.config import schema_defaults
 from clothscope.core.schema import load_schema
 from clothscope.core.truth import truth_paths
 from clothscope.synth.fabrics import TWILL21, TWILL31
@@ -87,10 +87,11 @@ def test_denim_has_indigo_warp_on_top_and_ecru_weft_below():
 
 
 def test_small_render_decodes_with_consistent_truth(tmp_path):
-    photo = synthesize_field("linen", 0, 11, spp=2, max_mesh_resolution=512, threads=1, scale=0.125)
+    photo = synthesize_field("linen", 0, 11, spp=2, max_mesh_resolution=512, variant=schema_defaults()["variant"], threads=1,
+                             scale=0.125)
     path = tmp_path / "linen" / "linen_00.jpg"
     save_field(photo, path)
-    image = decode_image(path).rgb
+    image = decode(path).rgb
     side = photo.truth["image_resolution"]
     assert image.shape[:2] == (side, side) and side == round(photo.truth["draw"]["resolution"])
     assert Image.open(io.BytesIO(photo.jpeg)).format == "JPEG"

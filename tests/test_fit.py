@@ -9,22 +9,21 @@ import numpy as np
 import pytest
 from conftest import SYNTHETIC
 
+from clothscope.core.config import settings as config_settings
 from clothscope.core.imageio import linear_to_srgb, read_exr, write_png
 from clothscope.core.runtime import mitsuba_for
 from clothscope.fit import jobs
 from clothscope.fit.effects import Evidence, geometry_evidence, plan_stage
-from clothscope.fit.geometry import GeometrySettings
 from clothscope.fit.loop import LoopSettings, optimise
-from clothscope.fit.material import MaterialSettings
 from clothscope.fit.model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
 from clothscope.fit.normals import NormalSettings, height_to_normals_np, initial_height
-from clothscope.prepare.image import PrepareSettings, prepare_image
+from clothscope.prepare.image import prepare_image
 
 LOG = logging.getLogger("test_fit")
 TINY = dict(
-    geometry=GeometrySettings(resolution=16, spp=4, iterations=6),
-    material=MaterialSettings(resolution=32, spp=2, iterations=6),
-    normals=NormalSettings(resolution=32, spp=2, texture=32, iterations=6, joint_iterations=6),
+    geometry=config_settings("fit.geometry", resolution=16, spp=4, iterations=6),
+    material=config_settings("fit.material", resolution=32, spp=2, iterations=6),
+    normals=config_settings("fit.normals", resolution=32, spp=2, texture=32, iterations=6, joint_iterations=6),
 )
 
 
@@ -36,7 +35,7 @@ def mi():
 def run_tiny_fit(photo_path, tmp_path, full_effects: bool = False, normals: NormalSettings | None = None) -> dict:
     """prepare -> geometry -> material -> normals on tiny settings; returns the final state."""
     prepared, fit = tmp_path / "prepared", tmp_path / "fit"
-    prepare_image("case", photo_path, prepared, PrepareSettings(working_resolution=64))
+    prepare_image("case", photo_path, prepared, config_settings("prepare", working_resolution=64, scale="frame"))
     common = dict(variant="llvm_ad_rgb", threads=2, full_effects=full_effects, log=LOG)
     jobs.geometry_job(str(prepared), str(fit / "geometry"), TINY["geometry"], **common)
     jobs.material_job(str(prepared), str(fit / "geometry"), str(fit / "material"), TINY["material"], **common)
@@ -61,13 +60,13 @@ def assert_all_finite(state: dict, normals_dir) -> None:
 def render_case(mi, path, material: Material, light: PointLight, grid: np.ndarray | None = None, gain: float = 1.0) -> None:
     """Render a 64 px photo of the fit model itself and save it as an 8-bit sRGB PNG."""
     camera = FitCamera()
-    fit = FitScene(camera, light, plane_grid(camera, 32) if grid is None else grid, 0.06, material)
+    fit = FitScene(camera, light, plane_grid(camera, 32, 0.06) if grid is None else grid, 0.06, material)
     image = np.array(mi.render(build_scene(mi, fit, 64, {"type": "direct"}, "independent"), spp=16, seed=1))[..., :3] * gain
     write_png(path, linear_to_srgb(np.clip(image, 0, 1)))
 
 
 def folded_grid(amplitude: float) -> np.ndarray:
-    grid = plane_grid(FitCamera(), 32)
+    grid = plane_grid(FitCamera(), 32, 0.06)
     grid[..., 2] = amplitude * np.sin(grid[..., 0] * 12.0)
     return grid
 
@@ -90,7 +89,7 @@ def test_tiny_fit_of_a_synthetic_photo_writes_every_output(tmp_path):
 
 
 def test_normals_without_joint_pass_keep_the_material_stage_bsdf(tmp_path):
-    settings = NormalSettings(resolution=32, spp=2, texture=32, iterations=4, joint_iterations=0)
+    settings = config_settings("fit.normals", resolution=32, spp=2, texture=32, iterations=4, joint_iterations=0)
     state = run_tiny_fit(SYNTHETIC / "satin" / "satin_red.png", tmp_path, normals=settings)
     material = json.loads((tmp_path / "fit" / "material" / "state.json").read_text())["material"]
     assert state["status"] == "fitted" and state["material"] == material
@@ -102,7 +101,7 @@ def test_shade_texture_takes_the_holes_of_an_open_weave_and_stays_in_range(tmp_p
     from clothscope.features.structure import StructureSettings, shade_features
     from clothscope.fit.normals import SHADE_FILE, SHADE_LATENT0
 
-    settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, albedo_weight=0.05,
+    settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, albedo_weight=0.05,
                               colour_model="one_colour")
     state = run_tiny_fit(SYNTHETIC / "cotton_gauze" / "cotton_gauze_ivory.png", tmp_path, normals=settings)
     assert state["status"] == "fitted"
@@ -130,7 +129,7 @@ def test_a_striped_flat_cloth_keeps_its_stripes_in_the_colour_and_out_of_the_rel
     from clothscope.fit.model import shaded_texture
 
     camera, material = FitCamera(), Material((0.5, 0.5, 0.5), 0.3, 0.7)
-    fit = FitScene(camera, PointLight(15, 30), plane_grid(camera, 32), 0.06, material)
+    fit = FitScene(camera, PointLight(15, 30), plane_grid(camera, 32, 0.06), 0.06, material)
     columns = np.arange(64)
     stripes = np.where((columns // 8) % 2 == 1, np.array([[1.3], [1.2], [0.9]]), np.array([[0.3], [0.4], [1.0]])).T
     layout = np.broadcast_to(stripes[None, :, :], (64, 64, 3))  # navy and ecru stripes along the columns
@@ -140,7 +139,7 @@ def test_a_striped_flat_cloth_keeps_its_stripes_in_the_colour_and_out_of_the_rel
     write_png(tmp_path / "striped.png", linear_to_srgb(np.clip(image, 0, 1)))
     tilt, psnr = {}, {}
     for model in ("auto", "one_colour"):
-        settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, colour_model=model)
+        settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, colour_model=model)
         state = run_tiny_fit(tmp_path / "striped.png", tmp_path / model, normals=settings)
         folder = tmp_path / model / "fit" / "normals"
         assert_all_finite(state, folder)
@@ -191,7 +190,7 @@ def test_gradients_match_finite_differences(mi):
     import drjit as dr
 
     camera = FitCamera()
-    fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
+    fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8, 0.06), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
     scene = build_scene(mi, fit, 16, {"type": "direct"}, "independent")
     params = mi.traverse(scene)
 
@@ -219,7 +218,7 @@ def test_loss_image_and_gradient_pass_take_their_own_sample_counts(mi):
     from clothscope.fit.stage import render
 
     camera = FitCamera()
-    fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
+    fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8, 0.06), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
     scene = build_scene(mi, fit, 16, {"type": "direct"}, "independent")
     params = mi.traverse(scene)
     reference = np.array(mi.render(scene, spp=8, seed=5))
@@ -279,11 +278,11 @@ def test_plateau_rule_stops_early(mi):
 
 def test_effects_plan_simulates_only_what_the_scene_needs():
     camera, light = FitCamera(), PointLight(30.0, 45.0)
-    flat = geometry_evidence(plane_grid(camera, 16), camera, light)
+    flat = geometry_evidence(plane_grid(camera, 16, 0.06), camera, light)
     assert flat == Evidence(False, False, False, False)
     assert plan_stage("geometry", flat).integrator == "direct_unshadowed"
     assert plan_stage("normals", flat).integrator == "direct_unshadowed"
-    assert geometry_evidence(plane_grid(camera, 16), camera).cast_shadows  # unknown light: assume shadows
+    assert geometry_evidence(plane_grid(camera, 16, 0.06), camera).cast_shadows  # unknown light: assume shadows
     deep = geometry_evidence(folded_grid(0.35), camera, light)
     assert deep.facing_folds
     assert plan_stage("material", deep).integrator == "prb" and plan_stage("material", deep).max_depth == 3
@@ -344,11 +343,11 @@ def render_noise(mi, scene, spp: int) -> float:
 def test_fit_renders_stratify_the_pixel_and_stay_unbiased(mi):
     """The fit's sampler leaves less noise than independent samples at the same count, around the same image."""
     camera = FitCamera()
-    fit = FitScene(camera, PointLight(30, 45), plane_grid(camera, 8), 0.06, Material((0.5, 0.4, 0.3), 0.5, 0.3))
+    fit = FitScene(camera, PointLight(30, 45), plane_grid(camera, 8, 0.06), 0.06, Material((0.5, 0.4, 0.3), 0.5, 0.3))
     u = np.arange(64) * 2 * np.pi / 16
     texture = height_to_normals_np(np.add.outer(np.sin(u), np.cos(u)).astype(np.float64)) * 0.5 + 0.5
     ours, independent = (build_scene(mi, fit, 32, {"type": "direct"}, kind, normal_texture=texture.astype(np.float32))
-                         for kind in (NormalSettings().sampler, "independent"))
+                         for kind in (config_settings("fit.normals").sampler, "independent"))
     assert render_noise(mi, ours, 16) < 0.5 * render_noise(mi, independent, 16)
     converged = [np.array(mi.render(scene, spp=256, seed=3)) for scene in (ours, independent)]
     assert np.abs(converged[0] - converged[1]).mean() < 0.02 * converged[1].mean()
@@ -428,7 +427,7 @@ def test_smoothness_prior_lowers_the_fitted_relief_curvature(tmp_path):
     photo = SYNTHETIC / "canvas" / "canvas_red.png"
     curvatures = {}
     for weight in (0.0, 0.01):
-        settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=0, smoothness=weight)
+        settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=12, joint_iterations=0, smoothness=weight)
         state = run_tiny_fit(photo, tmp_path / str(weight), normals=settings)
         folder = tmp_path / str(weight) / "fit" / "normals"
         assert state["status"] == "fitted"
@@ -442,7 +441,7 @@ def test_shading_start_puts_the_photo_pattern_into_the_height_map_the_fit_starts
     photo = SYNTHETIC / "canvas" / "canvas_red.png"
     reliefs = {}
     for start in ("flat", "shading"):
-        settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=0, joint_iterations=0, initial_relief=start)
+        settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=0, joint_iterations=0, initial_relief=start)
         state = run_tiny_fit(photo, tmp_path / start, normals=settings)
         folder = tmp_path / start / "fit" / "normals"
         assert state["status"] == "fitted" and state["settings"]["initial_relief"] == start
@@ -491,7 +490,7 @@ def test_large_steps_height_map_is_smoother_for_the_same_iterations_and_stays_fi
     photo = SYNTHETIC / "canvas" / "canvas_red.png"
     curvatures = {}
     for lambda_, rate in ((0.0, 0.05), (4.0, 0.5)):
-        settings = NormalSettings(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=4, learning_rate=rate,
+        settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=12, joint_iterations=4, learning_rate=rate,
                                   large_steps_lambda=lambda_)
         state = run_tiny_fit(photo, tmp_path / str(lambda_), normals=settings)
         folder = tmp_path / str(lambda_) / "fit" / "normals"

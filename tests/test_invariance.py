@@ -16,8 +16,9 @@ from functools import lru_cache
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import SCHEMAS, SYNTHETIC
+from conftest import SCHEMAS, SYNTHETIC, decode
 
+from clothscope.core.config import settings as config_settings
 from clothscope.classify.loocv import loocv
 from clothscope.classify.qda import make_qda
 from clothscope.core.imageio import read_png
@@ -29,8 +30,8 @@ from clothscope.features.paper import SpectrumSettings, analyse_normal_map
 FIVE = ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze")
 SEVEN = (*FIVE, "knit_jersey", "velvet")
 SETTINGS = {
-    5: (FIVE, SpectrumSettings(n_peaks=2, alpha=2.0, dc_radius=20.0, peak_size=15.0)),
-    7: (SEVEN, SpectrumSettings(n_peaks=2, alpha=3.0, dc_radius=20.0, peak_size=25.0)),
+    5: (FIVE, config_settings("features", n_peaks=2, alpha=2.0, dc_radius=20.0, peak_size=15.0)),
+    7: (SEVEN, config_settings("features", n_peaks=2, alpha=3.0, dc_radius=20.0, peak_size=25.0)),
 }
 MIN_ACCURACY = {5: 0.95, 7: 0.85}
 MAX_CHANGE = 0.05
@@ -134,7 +135,7 @@ def test_zoom_map_keeps_size_and_stretches_the_period():
     z = _grating(128, 8.0, 0.0)
     zoomed = zoom_map(z, 1.5)
     assert zoomed.shape == z.shape
-    settings = SpectrumSettings(dc_radius=8.0, peak_size=12.0, reference_resolution=256)
+    settings = config_settings("features", dc_radius=8.0, peak_size=12.0, reference_resolution=256)
     before = analyse_normal_map(z, settings).dominant_period_px
     after = analyse_normal_map(zoomed, settings).dominant_period_px
     assert after == pytest.approx(1.5 * before, rel=0.05)
@@ -192,33 +193,30 @@ def test_refitted_thread_structure_survives_recolouring_rotation_and_zoom(tmp_pa
     """One photo and its recoloured, rotated and zoomed versions, each prepared and refitted at 128 px."""
     import logging
 
-    from clothscope.core.imageio import decode_image, linear_to_srgb, write_png
+    from clothscope.core.imageio import linear_to_srgb, write_png
     from clothscope.evaluate.invariance import PHOTO_TRANSFORMS
     from clothscope.features.structure import StructureSettings, structure_features
     from clothscope.features.table import load_fitted
     from clothscope.fit import jobs
-    from clothscope.fit.geometry import GeometrySettings
-    from clothscope.fit.material import MaterialSettings
-    from clothscope.fit.normals import NormalSettings
-    from clothscope.prepare.image import PrepareSettings, prepare_image
+    from clothscope.prepare.image import prepare_image
 
     settings = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3)
     field = validate({}, load_schema(SCHEMAS / "config.schema.yaml"), "config")["features"]["fitted_field"]
     common = dict(variant="llvm_ad_rgb", threads=2, full_effects=False, log=logging.getLogger("test_invariance"))
 
     def refit(photo, out):
-        prepare_image("case", photo, out / "prepared", PrepareSettings(working_resolution=128))
-        jobs.geometry_job(str(out / "prepared"), str(out / "geometry"), GeometrySettings(resolution=32, spp=4, iterations=20), **common)
+        prepare_image("case", photo, out / "prepared", config_settings("prepare", working_resolution=128, scale="frame"))
+        jobs.geometry_job(str(out / "prepared"), str(out / "geometry"), config_settings("fit.geometry", resolution=32, spp=4, iterations=20), **common)
         jobs.material_job(str(out / "prepared"), str(out / "geometry"), str(out / "material"),
-                          MaterialSettings(resolution=64, spp=2, iterations=10), **common)
+                          config_settings("fit.material", resolution=64, spp=2, iterations=10), **common)
         jobs.normals_job(str(out / "prepared"), str(out / "material"), str(out / "normals"),
-                         NormalSettings(resolution=128, spp=4, spp_grad=2, texture=128, iterations=30, joint_iterations=20), **common)
+                         config_settings("fit.normals", resolution=128, spp=4, spp_grad=2, texture=128, iterations=30, joint_iterations=20), **common)
         return structure_features(load_fitted(out / "normals", field).field, settings)
 
     photo = SYNTHETIC / "canvas" / "canvas_red.png"
     base, base_diag = refit(photo, tmp_path / "original")
     assert base_diag["lattice"]
-    srgb = linear_to_srgb(decode_image(photo).rgb)
+    srgb = linear_to_srgb(decode(photo).rgb)
     expected_scale = {"hue120": 1.0, "rotate30": 256 / rotated_crop_size(256, 30.0), "zoom1.5": 256 / 171}
     for name, scale in expected_scale.items():
         write_png(tmp_path / f"{name}.png", PHOTO_TRANSFORMS[name](srgb))

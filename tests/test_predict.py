@@ -12,6 +12,7 @@ from conftest import ROOT, SCHEMAS, SYNTHETIC
 from clothscope.classify.feature_sets import classifier_candidates, joined_table
 from clothscope.classify.model import load_model, save_model, train_model
 from clothscope.cli import main
+from clothscope.core.config import schema_defaults
 from clothscope.core.schema import apply_preset, load_schema, validate
 from clothscope.features.structure import StructureSettings
 from clothscope.features.table import features_job
@@ -119,3 +120,12 @@ def test_predict_fits_the_photo_when_the_model_reads_fitted_maps(photo_model, tm
     for stage in ("geometry", "material", "normals"):
         state = json.loads((tmp_path / "out" / "satin_red" / "fit" / stage / "state.json").read_text())
         assert state["status"] == "fitted", state
+
+
+def test_a_model_recorded_before_a_key_takes_its_legacy_value_else_the_schema_default(photo_model):
+    model = load_model(photo_model)
+    recorded = model.metadata["metadata"]["settings"]
+    del recorded["prepare"]["scale"], recorded["fit"]["normals"]["colour_model"], recorded["features"]["n_peaks"]
+    settings = training_settings(model)
+    assert settings["prepare"]["scale"] == "frame" and settings["fit"]["normals"]["colour_model"] == "one_colour"
+    assert settings["features"]["n_peaks"] == schema_defaults()["features"]["n_peaks"]

@@ -7,15 +7,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import FILE_PROBLEMS, broken_and_valid_files, gradient_rgb
+from conftest import FILE_PROBLEMS, broken_and_valid_files, decode, gradient_rgb
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
+from clothscope.core.config import settings as config_settings
 from clothscope.core.atomic import atomic_dir, write_json
-from clothscope.core.imageio import ImageRejected, decode_image, linear_to_srgb, srgb_to_linear, write_exr
+from clothscope.core.imageio import ImageRejected, linear_to_srgb, srgb_to_linear, write_exr
 from clothscope.features.structure import StructureSettings
-from clothscope.prepare.image import PrepareSettings, prepare_image, to_working_resolution
+from clothscope.prepare.image import prepare_image, to_working_resolution
 
 
 def test_srgb_round_trip_and_known_values():
@@ -27,7 +28,7 @@ def test_srgb_round_trip_and_known_values():
 def test_png8_decodes_to_linear(tmp_path):
     rgb = gradient_rgb()
     Image.fromarray(rgb).save(tmp_path / "a.png")
-    decoded = decode_image(tmp_path / "a.png")
+    decoded = decode(tmp_path / "a.png")
     assert decoded.rgb.shape == rgb.shape and decoded.bit_depth == 8
     assert np.allclose(decoded.rgb, srgb_to_linear(rgb / 255.0), atol=1e-6)
 
@@ -37,14 +38,14 @@ def test_png16_gray_and_colour_keep_16_bit_precision(tmp_path):
 
     values = np.linspace(0, 65535, 96 * 128).reshape(96, 128).astype(np.uint16)
     Image.fromarray(values).save(tmp_path / "g.png")
-    gray = decode_image(tmp_path / "g.png")
+    gray = decode(tmp_path / "g.png")
     assert gray.bit_depth == 16 and np.allclose(gray.rgb[..., 0], srgb_to_linear(values / 65535.0), atol=1e-6)
     mi = _mitsuba_scalar()
     encoded = np.random.default_rng(0).random((80, 90, 3)).astype(np.float32)
     bitmap = mi.Bitmap(encoded, mi.Bitmap.PixelFormat.RGB).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt16, srgb_gamma=False)
     bitmap.set_srgb_gamma(True)
     bitmap.write(str(tmp_path / "c.png"))
-    colour = decode_image(tmp_path / "c.png")
+    colour = decode(tmp_path / "c.png")
     assert colour.bit_depth == 16
     assert np.abs(colour.rgb - srgb_to_linear(encoded)).max() < 2e-4  # 8-bit decoding would be off by ~2e-3
 
@@ -65,7 +66,7 @@ def test_common_formats_decode_to_similar_linear_rgb(tmp_path, name, mode, kwarg
     elif mode != "RGB":
         image = image.convert(mode)
     image.save(tmp_path / name, **kwargs)
-    decoded = decode_image(tmp_path / name)
+    decoded = decode(tmp_path / name)
     assert decoded.rgb.shape == (96, 128, 3) and np.all(np.isfinite(decoded.rgb))
     tolerance = 0.06 if mode in ("CMYK", "P") else 0.02
     assert np.abs(decoded.rgb - reference).mean() < tolerance
@@ -78,7 +79,7 @@ def test_exr_is_read_as_linear(tmp_path):
 
     data = np.random.default_rng(1).random((70, 80, 3)).astype(np.float32) * 3
     write_exr(tmp_path / "x.exr", data)
-    decoded = decode_image(tmp_path / "x.exr")
+    decoded = decode(tmp_path / "x.exr")
     assert decoded.bit_depth == 32 and np.array_equal(decoded.rgb, data) and not decoded.clipped.any()
 
 
@@ -88,7 +89,7 @@ def test_exif_orientation_is_applied(tmp_path):
     exif = Image.Exif()
     exif[0x0112] = 6  # stored rotated: display needs 90 degrees clockwise
     Image.fromarray(rgb).save(tmp_path / "o.jpg", exif=exif, quality=98)
-    decoded = decode_image(tmp_path / "o.jpg")
+    decoded = decode(tmp_path / "o.jpg")
     assert decoded.rgb.shape[:2] == (120, 80)
     assert decoded.rgb[:10, -10:].mean() > 0.8 and decoded.rgb[:10, :10].mean() < 0.1
     assert any("orientation 6" in note for note in decoded.notes)
@@ -107,16 +108,16 @@ def test_saturated_pixels_are_marked(tmp_path):
     rgb = gradient_rgb()
     rgb[:20, :20] = 255
     Image.fromarray(rgb).save(tmp_path / "s.png")
-    assert decode_image(tmp_path / "s.png").clipped[:20, :20].all()
+    assert decode(tmp_path / "s.png").clipped[:20, :20].all()
 
 
 def test_every_broken_file_is_rejected_with_one_line(tmp_path):
     for stem, (path, valid) in broken_and_valid_files(tmp_path).items():
         if valid:
-            assert np.all(np.isfinite(decode_image(path).rgb)), stem
+            assert np.all(np.isfinite(decode(path).rgb)), stem
             continue
         with pytest.raises(ImageRejected) as err:
-            decode_image(path)
+            decode(path)
         message = str(err.value)
         assert message.startswith(str(path)) and "\n" not in message, message
         if stem == "huge":
@@ -127,7 +128,7 @@ def test_every_broken_file_is_rejected_with_one_line(tmp_path):
 
 def test_prepare_image_accepts_and_rejects(tmp_path):
     files = broken_and_valid_files(tmp_path / "in")
-    settings = PrepareSettings(working_resolution=32)
+    settings = config_settings("prepare", working_resolution=32, scale="frame")
     good = prepare_image("good", files["good"][0], tmp_path / "out" / "good", settings)
     assert good["status"] == "accepted"
     assert sorted(p.name for p in (tmp_path / "out" / "good").iterdir()) == ["clipped.png", "image.exr", "preview.png", "status.json"]
@@ -139,7 +140,7 @@ def test_prepare_image_accepts_and_rejects(tmp_path):
 
 def test_mostly_clipped_image_is_rejected(tmp_path):
     Image.new("RGB", (128, 128), (255, 255, 255)).save(tmp_path / "white.png")
-    record = prepare_image("white", tmp_path / "white.png", tmp_path / "out", PrepareSettings())
+    record = prepare_image("white", tmp_path / "white.png", tmp_path / "out", config_settings("prepare", scale="frame"))
     assert record["status"] == "rejected" and "clipped" in record["reason"]
 
 
@@ -208,7 +209,7 @@ def test_yarn_dyed_stripes_do_not_read_as_the_thread_period():
 
 def test_thread_scale_crops_fine_threads_into_the_band_and_records_it(tmp_path):
     Image.fromarray(weave_photo(1024, 20.0)).save(tmp_path / "fine.png")
-    settings = PrepareSettings(working_resolution=256, scale="threads")
+    settings = config_settings("prepare", working_resolution=256, scale="threads")
     record = prepare_image("fine", tmp_path / "fine.png", tmp_path / "out", settings, LATTICE)
     scale = record["scale"]
     assert record["status"] == "accepted" and scale["method"] == "threads"
@@ -218,12 +219,12 @@ def test_thread_scale_crops_fine_threads_into_the_band_and_records_it(tmp_path):
     assert scale["native_px_per_working_px"] == pytest.approx(scale["crop_px"] / 256)
     assert "note" not in scale
     # the whole frame would have put the threads at 5 px; "frame" keeps it and says nothing about threads
-    frame = prepare_image("fine", tmp_path / "fine.png", tmp_path / "frame", PrepareSettings(working_resolution=256))
+    frame = prepare_image("fine", tmp_path / "fine.png", tmp_path / "frame", config_settings("prepare", working_resolution=256, scale="frame"))
     assert frame["scale"] == {"method": "frame", "crop_px": 1024, "native_px_per_working_px": 4.0}
 
 
 def test_thread_scale_keeps_the_frame_when_threads_are_coarse_or_absent(tmp_path):
-    settings = PrepareSettings(working_resolution=128, scale="threads")
+    settings = config_settings("prepare", working_resolution=128, scale="threads")
     Image.fromarray(weave_photo(512, 48.0)).save(tmp_path / "coarse.png")
     coarse = prepare_image("coarse", tmp_path / "coarse.png", tmp_path / "coarse", settings, LATTICE)["scale"]
     assert coarse["crop_px"] == 512 and coarse["working_period_px"] == pytest.approx(12.0, rel=0.05)
@@ -239,11 +240,11 @@ def test_thread_scale_keeps_the_frame_when_threads_are_coarse_or_absent(tmp_path
 
 def test_thread_scale_needs_the_peak_test_and_a_valid_band(tmp_path):
     with pytest.raises(ValueError, match="lattice"):
-        prepare_image("x", tmp_path / "x.png", tmp_path / "out", PrepareSettings(scale="threads"))
+        prepare_image("x", tmp_path / "x.png", tmp_path / "out", config_settings("prepare", scale="threads"))
     with pytest.raises(ValueError, match="period_band"):
-        PrepareSettings(period_band=(16.0, 8.0))
+        config_settings("prepare", period_band=[16.0, 8.0])
     with pytest.raises(ValueError, match="scale"):
-        PrepareSettings(scale="zoom")
+        config_settings("prepare", scale="zoom")
 
 
 @pytest.fixture(scope="module")
@@ -287,7 +288,7 @@ def test_fuzzed_files_decode_or_are_rejected_with_one_line(valid_files, tmp_path
     path = tmp_path / f"fuzzed.{suffix}"
     path.write_bytes(mutated(valid_files[suffix], mutation))
     try:
-        decoded = decode_image(path, min_px=16)
+        decoded = decode(path, min_px=16)
     except ImageRejected as err:
         assert str(err).startswith(str(path)) and "\n" not in str(err)
     else:
@@ -299,7 +300,7 @@ def test_decompression_bomb_is_refused_from_the_header(tmp_path):
     Image.new("1", (12000, 9000)).save(tmp_path / "bomb.png")
     tracemalloc.start()
     with pytest.raises(ImageRejected, match="12000x9000"):
-        decode_image(tmp_path / "bomb.png")
+        decode(tmp_path / "bomb.png")
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak < 20e6, f"{peak / 1e6:.0f} MB allocated before refusing"
@@ -307,12 +308,12 @@ def test_decompression_bomb_is_refused_from_the_header(tmp_path):
 
 @pytest.mark.parametrize("mode", ["RGB", "L", "P"])
 def test_8bit_photos_decode_through_the_table_exactly_as_the_transfer_function(tmp_path, mode):
-    from clothscope.core.imageio import decode_image, srgb_to_linear
+    from clothscope.core.imageio import srgb_to_linear
 
     codes = np.random.default_rng(5).integers(0, 256, size=(70, 90, 3), dtype=np.uint8)
     image = Image.fromarray(codes).convert(mode)
     image.save(tmp_path / "photo.png")
     expected = np.asarray(image.convert("RGB"), dtype=np.float32) / 255.0
-    decoded = decode_image(tmp_path / "photo.png", clip_threshold=0.9)
+    decoded = decode(tmp_path / "photo.png", clip_threshold=0.9)
     assert decoded.rgb.dtype == np.float32 and np.array_equal(decoded.rgb, srgb_to_linear(expected))
     assert np.array_equal(decoded.clipped, np.any(expected >= 0.9, axis=2))

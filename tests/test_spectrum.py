@@ -13,15 +13,16 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy import ndimage
 
+from clothscope.core.config import settings as config_settings
 from clothscope.core.imageio import read_png
 from clothscope.core.truth import decode_normal
 from clothscope.features.extras import extra_features
-from clothscope.features.paper import SpectrumSettings, analyse_normal_map
+from clothscope.features.paper import analyse_normal_map
 from clothscope.features.period import thread_period
 from clothscope.features.plots import plot_analysis
 
 #: Settings used at the small property-test sizes: a 2-bin DC disc, a 3-bin filter at N = 64.
-SMALL = SpectrumSettings(n_peaks=2, alpha=2.0, dc_radius=8.0, peak_size=12.0, reference_resolution=256)
+SMALL = config_settings("features", n_peaks=2, alpha=2.0, dc_radius=8.0, peak_size=12.0, reference_resolution=256)
 #: The same with the paper's R_m normalisation and peak count.
 SMALL_PAPER = SMALL.paper()
 FEATURE_KEYS = {"r_1", "r_2", "z_1", "z_2", "n_peaks"}
@@ -70,7 +71,7 @@ def test_constant_map_has_no_peaks(value, size):
 @given(st.integers(0, 2**32 - 1))
 def test_gaussian_noise_gives_finite_features_and_few_peaks(seed):
     z = np.random.default_rng(seed).normal(0.9, 0.05, (64, 64))
-    result = analyse_normal_map(z, SpectrumSettings(n_peaks=2, alpha=3.0, dc_radius=8.0, peak_size=12.0, reference_resolution=256,
+    result = analyse_normal_map(z, config_settings("features", n_peaks=2, alpha=3.0, dc_radius=8.0, peak_size=12.0, reference_resolution=256,
                                                     significance=CALIBRATED))
     assert _all_finite(result.features) and _all_finite(extra_features(result))
     assert len(result.raw_peaks) <= 2
@@ -87,16 +88,16 @@ def test_noise_finds_no_threads(seed, size, smoothing):
     z = np.random.default_rng(seed).normal(0.9, 0.05, (size, size))
     if smoothing:
         z = ndimage.gaussian_filter(z, smoothing)
-    assert len(analyse_normal_map(z, SpectrumSettings(significance=CALIBRATED)).raw_peaks) <= 2
+    assert len(analyse_normal_map(z, config_settings("features", significance=CALIBRATED)).raw_peaks) <= 2
     # the paper's test, for comparison, calls dozens of noise maxima peaks
-    assert len(analyse_normal_map(z, SpectrumSettings().paper()).raw_peaks) > 10
+    assert len(analyse_normal_map(z, config_settings("features").paper()).raw_peaks) > 10
 
 
 def test_noise_false_alarm_rate_is_about_a_tenth_of_a_peak_per_map():
     rng = np.random.default_rng(2026)
     maps = [rng.normal(size=(256, 256)) for _ in range(10)] + [ndimage.gaussian_filter(rng.normal(size=(256, 256)), 1.5)
                                                               for _ in range(10)]
-    false_peaks = sum(len(analyse_normal_map(z, SpectrumSettings(significance=CALIBRATED)).raw_peaks) for z in maps)
+    false_peaks = sum(len(analyse_normal_map(z, config_settings("features", significance=CALIBRATED)).raw_peaks) for z in maps)
     assert false_peaks / len(maps) <= 0.5
 
 
@@ -105,8 +106,8 @@ def test_every_woven_or_knitted_class_keeps_its_lattice_peaks(fabric):
     """The noise-calibrated test keeps the lattice: the peaks the features read are those found without it."""
     for color in ("red", "navy", "ivory"):
         normal, _ = _truth(f"{fabric}_{color}")
-        calibrated = analyse_normal_map(normal, SpectrumSettings(significance=CALIBRATED))
-        uncalibrated = analyse_normal_map(normal, SpectrumSettings())
+        calibrated = analyse_normal_map(normal, config_settings("features", significance=CALIBRATED))
+        uncalibrated = analyse_normal_map(normal, config_settings("features"))
         assert calibrated.peaks and calibrated.peaks == uncalibrated.peaks
         assert calibrated.dominant_period_px == pytest.approx(uncalibrated.dominant_period_px)
 
@@ -173,11 +174,11 @@ def test_bad_shapes_are_refused(shape, message):
 )
 def test_settings_are_validated(kwargs, message):
     with pytest.raises(ValueError, match=message):
-        SpectrumSettings(**kwargs)
+        config_settings("features", **kwargs)
 
 
 def test_settings_scale_with_map_size():
-    s = SpectrumSettings(dc_radius=20.0, peak_size=15.0, reference_resolution=1024)
+    s = config_settings("features", dc_radius=20.0, peak_size=15.0, reference_resolution=1024)
     assert s.dc_radius_bins(256) == pytest.approx(5.0) and s.dc_radius_bins(1024) == pytest.approx(20.0)
     assert s.peak_size_bins(1024) == 15 and s.peak_size_bins(256) == 3 and s.peak_size_bins(16) == 1
     assert all(s.peak_size_bins(n) % 2 == 1 for n in range(16, 2048, 37))
@@ -238,11 +239,11 @@ def test_strongest_normalisation_and_strong_fraction():
 
 
 def test_paper_settings_keep_the_other_knobs():
-    s = SpectrumSettings(n_peaks=3, alpha=3.0, dc_radius=10.0, peak_size=25.0, window="none", reference_resolution=512)
+    s = config_settings("features", n_peaks=3, alpha=3.0, dc_radius=10.0, peak_size=25.0, window="none", reference_resolution=512)
     paper = s.paper()
     assert (paper.radius_normalisation, paper.peak_count, paper.significance) == ("max", "all", 0.0)
     assert replace(paper, radius_normalisation=s.radius_normalisation, peak_count=s.peak_count, significance=s.significance) == s
-    assert (SpectrumSettings().radius_normalisation, SpectrumSettings().peak_count) == ("strong_max", "strong")
+    assert (config_settings("features").radius_normalisation, config_settings("features").peak_count) == ("strong_max", "strong")
 
 
 def _truth(stem: str) -> tuple[np.ndarray, dict]:
@@ -254,7 +255,7 @@ def _truth(stem: str) -> tuple[np.ndarray, dict]:
 @pytest.mark.parametrize(("stem", "harmonic"), [("broadcloth_ivory", 1), ("canvas_navy", 1), ("cotton_gauze_ivory", 2)])
 def test_dominant_period_matches_ground_truth(stem, harmonic):
     normal, truth = _truth(stem)
-    result = analyse_normal_map(normal, SpectrumSettings())
+    result = analyse_normal_map(normal, config_settings("features"))
     assert result.dominant_period_px == pytest.approx(truth["thread_period_px"] / harmonic, rel=0.05)
     extras = extra_features(result)
     assert _all_finite(extras) and all(key.startswith("x_") for key in extras)
@@ -264,7 +265,7 @@ def test_dominant_period_matches_ground_truth(stem, harmonic):
                                   "knit_jersey_navy"])
 def test_thread_period_is_the_thread_spacing_not_a_harmonic(stem):
     normal, truth = _truth(stem)
-    period = thread_period(normal, SpectrumSettings()) * 256 / normal.shape[0]
+    period = thread_period(normal, config_settings("features")) * 256 / normal.shape[0]
     periods = [p for p in (truth["thread_period_px"], truth.get("course_period_px")) if p]
     assert min(abs(period - p) / p for p in periods) < 0.02
 
@@ -275,27 +276,27 @@ def test_thread_period_of_a_grating_flat_map_and_bad_input():
     gx = np.gradient(height, axis=1)
     normal = np.stack([-gx, np.zeros_like(gx), np.ones_like(gx)], axis=-1)
     normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    assert thread_period(normal, SpectrumSettings()) == pytest.approx(size / frequency, rel=0.01)
-    assert analyse_normal_map(normal, SpectrumSettings()).dominant_period_px == pytest.approx(size / (2 * frequency), rel=0.01)
+    assert thread_period(normal, config_settings("features")) == pytest.approx(size / frequency, rel=0.01)
+    assert analyse_normal_map(normal, config_settings("features")).dominant_period_px == pytest.approx(size / (2 * frequency), rel=0.01)
     flat = np.zeros((64, 64, 3))
     flat[..., 2] = 1.0
-    assert thread_period(flat, SpectrumSettings()) is None
+    assert thread_period(flat, config_settings("features")) is None
     with pytest.raises(ValueError, match="shape"):
-        thread_period(flat[..., 2], SpectrumSettings())
+        thread_period(flat[..., 2], config_settings("features"))
     flat[3, 3, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):
-        thread_period(flat, SpectrumSettings())
+        thread_period(flat, config_settings("features"))
 
 
 def test_plain_weave_fundamentals_are_orthogonal():
     normal, _ = _truth("broadcloth_navy")
-    assert extra_features(analyse_normal_map(normal, SpectrumSettings()))["x_angle_deg"] == pytest.approx(90.0, abs=3.0)
+    assert extra_features(analyse_normal_map(normal, config_settings("features")))["x_angle_deg"] == pytest.approx(90.0, abs=3.0)
 
 
 def test_plot_analysis_writes_a_png(tmp_path):
     normal, _ = _truth("canvas_navy")
     target = tmp_path / "plots" / "canvas.png"
-    plot_analysis(analyse_normal_map(normal, SpectrumSettings()), target, title="canvas_navy")
+    plot_analysis(analyse_normal_map(normal, config_settings("features")), target, title="canvas_navy")
     data = target.read_bytes()
     assert len(data) > 1000 and data[:8] == b"\x89PNG\r\n\x1a\n"
     assert [p.name for p in target.parent.iterdir()] == ["canvas.png"]

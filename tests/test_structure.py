@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from clothscope.classify.feature_sets import FEATURE_SETS, compare_feature_sets, group_columns, inverse_rendering_gain
+from clothscope.core.config import settings as config_settings
 from clothscope.features.structure import (
     LBP_COLUMNS,
     LBP_SCALES,
@@ -129,9 +130,9 @@ def test_bad_fields_raise_value_error(field, message):
 
 def test_settings_are_checked():
     with pytest.raises(ValueError, match="border"):
-        StructureSettings(border=0.5, peak_threshold=10.0, fundamental_fraction=0.3)
+        config_settings("features.structure", border=0.5)
     with pytest.raises(ValueError, match="peak_threshold"):
-        StructureSettings(border=0.1, peak_threshold=1.0, fundamental_fraction=0.3)
+        config_settings("features.structure", peak_threshold=1.0)
 
 
 def test_lbp_baseline_histograms_sum_to_one():

@@ -7,11 +7,16 @@ import numpy as np
 import pytest
 from conftest import SYNTHETIC
 
+from clothscope.core.config import schema_defaults
 from clothscope.core.imageio import read_png
 from clothscope.core.truth import decode_normal, truth_paths
 from clothscope.synth.fabrics import FABRICS
 from clothscope.synth.generate import dataset_index, save, synthesize
 from clothscope.synth.verify import compare_image
+
+#: the committed set's settings, the config schema's defaults
+DEFAULTS = schema_defaults()
+SYNTH = DEFAULTS["synthesize"]
 
 TRUTHS = sorted(SYNTHETIC.glob("*/*.truth.json"))
 
@@ -46,10 +51,10 @@ def fundamental_period(normal: np.ndarray, dc_radius: float = 4.0, strong: float
 
 
 def test_committed_set_is_complete_and_small():
-    assert len(TRUTHS) == len(dataset_index()) == 42
+    assert len(TRUTHS) == len(dataset_index(SYNTH["colors_per_class"])) == 42
     total = sum(p.stat().st_size for p in SYNTHETIC.rglob("*") if p.is_file())
     assert total < 15e6
-    for fabric, _, image_id in dataset_index():
+    for fabric, _, image_id in dataset_index(SYNTH["colors_per_class"]):
         assert all(p.is_file() for p in truth_paths(SYNTHETIC / fabric / f"{image_id}.png").values())
 
 
@@ -75,9 +80,9 @@ def test_truth_is_consistent(truth_path):
 
 
 def test_generator_is_deterministic():
-    first = synthesize("velvet", 2, seed=7, resolution=64, spp=4, mesh_resolution=128, threads=2)
-    second = synthesize("velvet", 2, seed=7, resolution=64, spp=4, mesh_resolution=128, threads=2)
-    other = synthesize("velvet", 2, seed=8, resolution=64, spp=4, mesh_resolution=128, threads=2)
+    first = synthesize("velvet", 2, seed=7, resolution=64, spp=4, mesh_resolution=128, variant=DEFAULTS["variant"], threads=2)
+    second = synthesize("velvet", 2, seed=7, resolution=64, spp=4, mesh_resolution=128, variant=DEFAULTS["variant"], threads=2)
+    other = synthesize("velvet", 2, seed=8, resolution=64, spp=4, mesh_resolution=128, variant=DEFAULTS["variant"], threads=2)
     assert np.array_equal(first.maps["normal"], second.maps["normal"]) and np.array_equal(first.fold, second.fold)
     assert np.abs(first.image - second.image).max() <= 1 / 255 + 1e-6
     assert not np.array_equal(first.maps["normal"], other.maps["normal"])
@@ -88,8 +93,9 @@ def test_generator_is_deterministic():
 @pytest.mark.slow
 @pytest.mark.parametrize("fabric, dye_index", [("broadcloth", 0), ("chiffon", 5)])
 def test_regeneration_reproduces_committed_files(tmp_path, fabric, dye_index):
-    image_id = dataset_index()[list(FABRICS).index(fabric) * 6 + dye_index][2]
-    save(synthesize(fabric, dye_index, seed=load_truth(image_id)["seed"], threads=2), tmp_path / fabric / f"{image_id}.png")
+    image_id = dataset_index(SYNTH["colors_per_class"])[list(FABRICS).index(fabric) * SYNTH["colors_per_class"] + dye_index][2]
+    save(synthesize(fabric, dye_index, load_truth(image_id)["seed"], SYNTH["resolution"], SYNTH["spp"], SYNTH["mesh_resolution"],
+                   DEFAULTS["variant"], threads=2), tmp_path / fabric / f"{image_id}.png")
     row = compare_image(tmp_path / fabric / f"{image_id}.png", SYNTHETIC / fabric / f"{image_id}.png")
     assert row["truth_identical"], row
     assert row["reproduced"], row

@@ -13,6 +13,7 @@ import pandas as pd
 
 from clothscope import __version__
 from clothscope.core.atomic import write_text
+from clothscope.core.config import schema_defaults
 from clothscope.core.samples import COLUMNS, sheet_from_folder, sheet_to_tsv
 from clothscope.core.schema import InputError
 
@@ -115,12 +116,13 @@ def build_parser() -> argparse.ArgumentParser:
     sheet.set_defaults(func=cmd_sheet)
     synth = commands.add_parser("synthesize", help="render the synthetic dataset with ground truth")
     synth.add_argument("--out", default="data/synthetic", help="output folder (default: data/synthetic)")
-    synth.add_argument("--seed", type=int, default=20261121)
-    synth.add_argument("--resolution", type=int, default=256)
-    synth.add_argument("--spp", type=int, default=64)
-    synth.add_argument("--mesh-resolution", type=int, default=768)
-    synth.add_argument("--colors-per-class", type=int, default=6)
-    synth.add_argument("--variant", default="auto")
+    defaults = schema_defaults()  # the config schema's, as the workflow's synthesize rule
+    synth.add_argument("--seed", type=int, default=defaults["synthesize"]["seed"])
+    synth.add_argument("--resolution", type=int, default=defaults["synthesize"]["resolution"])
+    synth.add_argument("--spp", type=int, default=defaults["synthesize"]["spp"])
+    synth.add_argument("--mesh-resolution", type=int, default=defaults["synthesize"]["mesh_resolution"])
+    synth.add_argument("--colors-per-class", type=int, default=defaults["synthesize"]["colors_per_class"])
+    synth.add_argument("--variant", default=defaults["variant"])
     synth.add_argument("--threads", type=int, default=None)
     synth.add_argument("--sheet", help="also write the sample sheet of the generated set here")
     synth.add_argument("ids", nargs="*", help="only these image ids")

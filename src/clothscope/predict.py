@@ -22,6 +22,8 @@ from clothscope.classify.feature_sets import joined_table
 from clothscope.classify.model import QdaModel, predict
 from clothscope.classify.rows import posterior_column
 from clothscope.core.atomic import write_json
+from clothscope.core.config import schema_defaults
+from clothscope.core.schema import deep_merge
 from clothscope.features.structure import StructureSettings
 from clothscope.features.table import STATUS_OK, features_job
 from clothscope.fit import jobs
@@ -54,14 +56,20 @@ def model_sources(model: QdaModel) -> list[str]:
     return sorted(prefixes, key=lambda source: source != own)
 
 
+#: What models recorded before a key existed were processed with, where it differs from the schema default.
+LEGACY = {"prepare": {"scale": "frame"}, "fit": {"normals": {"colour_model": "one_colour"}}, "features": {"fitted_field": "relief"}}
+
+
 def training_settings(model: QdaModel) -> dict[str, Any]:
-    """The prepare, fit and features settings (and Mitsuba variant) the model's training images were processed with."""
+    """The prepare, fit and features settings (and Mitsuba variant) the model's training images were processed with.
+
+    A key the record lacks (it predates the key) takes its :data:`LEGACY` value, else its schema default.
+    """
     settings = model.metadata.get("metadata", {}).get("settings")
     if not isinstance(settings, dict) or not {"prepare", "fit", "features", "variant"} <= set(settings):
         raise ValueError("model record lacks the settings its images were processed with; retrain it with the workflow")
-    features = dict(settings["features"])
-    features.setdefault("fitted_field", "relief")  # what models recorded before the key existed read
-    return {**settings, "features": features}
+    defaults = deep_merge(schema_defaults(), LEGACY)
+    return {**settings, **{key: deep_merge(defaults[key], settings[key]) for key in ("prepare", "fit", "features")}}
 
 
 def unique_ids(photos: list[str]) -> list[str]:
@@ -87,8 +95,7 @@ def _fit(prepared: Path, work: Path, settings: dict[str, Any], threads: int, log
     step("fit_material")
     jobs.material_job(str(prepared), str(work / "geometry"), str(work / "material"), MaterialSettings(**fit["material"]), **common)
     step("fit_normals")
-    normals = {"colour_model": "one_colour"} | fit["normals"]  # a model recorded before colour_model was fitted with one colour
-    jobs.normals_job(str(prepared), str(work / "material"), str(work / "normals"), NormalSettings(**normals), **common)
+    jobs.normals_job(str(prepared), str(work / "material"), str(work / "normals"), NormalSettings(**fit["normals"]), **common)
     return work / "normals"
 
 

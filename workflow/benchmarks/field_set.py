@@ -29,6 +29,7 @@ from harness import ROOT, publish, validated_config
 from PIL import Image
 
 from clothscope.core.atomic import write_with
+from clothscope.core.config import schema_defaults
 from clothscope.core.imageio import decode_image
 from clothscope.core.truth import truth_paths
 from clothscope.evaluate.accuracy import seen_scale
@@ -38,6 +39,9 @@ from clothscope.prepare.image import native_period
 TOLERANCE = 0.05
 #: a period read this many times too long is a colour or weave repeat: the crop then leaves the threads too fine to fit
 TOO_LONG = 1.8
+
+#: decode_image limits: the config schema's prepare defaults
+DECODE = tuple(schema_defaults()["prepare"][k] for k in ("min_input_px", "max_megapixels", "clip_threshold"))
 
 
 def image_rows(field: Path, run: Path) -> pd.DataFrame:
@@ -55,7 +59,7 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
         error = period_error(measured, periods) if periods else None
         by_field = {}
         if periods:
-            rgb = decode_image(path).rgb
+            rgb = decode_image(path, *DECODE).rgb
             by_field = {name: period_error(native_period(rgb, 1024, lattice, name), periods) for name in ("luminance", "shading")}
         rows.append({"image_id": image_id, "fabric_class": truth["fabric_class"], "weave": draw["weave_variant"],
                      "capture": draw["capture"], "resolution": draw["resolution"], "fov_deg": draw["fov_deg"],

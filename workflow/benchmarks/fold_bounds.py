@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 from harness import ROOT, publish
 
+from clothscope.core.config import schema_defaults
 from clothscope.evaluate.accuracy import angular_error_deg, camera_basis, fold_normal_error, hit_plane, pixel_rays
 from clothscope.fit.model import FitCamera, plane_grid
 from clothscope.synth.generate import fold_surface
@@ -54,7 +55,7 @@ def true_camera_errors(truth: dict) -> tuple[float, float]:
     return float(np.median(angular_error_deg(true, flat))), float(np.median(angular_error_deg(true, light_only)))
 
 
-def untilted_camera_error(truth: dict, camera: FitCamera, margin: float = 0.06) -> float:
+def untilted_camera_error(truth: dict, camera: FitCamera, margin: float) -> float:
     """Fold normal error of the exact true fold surface on the fit's grid, seen by the fit's camera."""
     grid = plane_grid(camera, 64, margin)
     grid[..., 2] = fold_surface(grid[..., 0], grid[..., 1], truth["folds"])[0]
@@ -62,14 +63,15 @@ def untilted_camera_error(truth: dict, camera: FitCamera, margin: float = 0.06) 
 
 
 def main() -> int:
-    camera = FitCamera()
+    geometry = schema_defaults()["fit"]["geometry"]
+    camera = FitCamera(geometry["fov_deg"])
     rows = []
     for path in sorted((ROOT / "data" / "synthetic").glob("*/*.truth.json")):
         truth = json.loads(path.read_text(encoding="utf-8"))
         flat, light_only = true_camera_errors(truth)
         rows.append({"image_id": path.name.removesuffix(".truth.json"), "fabric_class": truth["fabric_class"],
                      "flat_deg": flat, "light_only_deg": light_only,
-                     "untilted_camera_deg": untilted_camera_error(truth, camera)})
+                     "untilted_camera_deg": untilted_camera_error(truth, camera, geometry["margin"])})
     table = pd.DataFrame(rows)
     medians = table[["flat_deg", "light_only_deg", "untilted_camera_deg"]].median()
     text = "\n".join(["# Fold normal error bounds (median over images, degrees)", "",

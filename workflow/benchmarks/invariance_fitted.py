@@ -40,6 +40,7 @@ from harness import ROOT, publish, snakemake, write_sheet
 from clothscope.classify.feature_sets import FEATURE_SETS, auto_candidates, classifier_candidates, common_images, joined_features
 from clothscope.classify.loocv import choose_columns
 from clothscope.classify.model import predict, train_model
+from clothscope.core.config import schema_defaults
 from clothscope.core.imageio import decode_image, linear_to_srgb, write_png
 from clothscope.evaluate.invariance import PHOTO_TRANSFORMS
 
@@ -52,12 +53,15 @@ SETS = ("record", "auto_fitted", "texture_brdf_fitted", "structure_brdf_fitted",
 #: the feature set standing for the classifier of record's sources (fitted maps, the photo beside them)
 RECORD_SOURCES = "fitted_plus_photo"
 
+#: decode_image limits: the config schema's prepare defaults
+DECODE = tuple(schema_defaults()["prepare"][k] for k in ("min_input_px", "max_megapixels", "clip_threshold"))
+
 
 def transformed_sheet(sheet: pd.DataFrame, out: Path) -> pd.DataFrame:
     """Write every transformed photo under ``out/photos`` and return their sample sheet."""
     rows = []
     for _, row in sheet.iterrows():
-        srgb = linear_to_srgb(decode_image(ROOT / row["path"]).rgb)
+        srgb = linear_to_srgb(decode_image(ROOT / row["path"], *DECODE).rgb)
         for name, transform in PHOTO_TRANSFORMS.items():
             path = out / "photos" / name / f"{row['image_id']}.png"
             path.parent.mkdir(parents=True, exist_ok=True)

@@ -20,6 +20,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from clothscope.core.atomic import write_text
+from clothscope.core.config import schema_defaults
 
 ROOT = Path(__file__).resolve().parents[2]
 THIS_COMMAND = ".venv/bin/python workflow/benchmarks/results_doc.py"
@@ -371,7 +372,8 @@ def results_page(results: Path) -> str:
 def main() -> None:
     """Parse the options, build the page and write it atomically."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--results", default="results", help="results folder of the design run (default: results)")
+    parser.add_argument("--results", default=schema_defaults()["results"],
+                        help="results folder of the design run (default: the config schema's results)")
     parser.add_argument("--out", default="docs/results.md", help="page to write (default: docs/results.md)")
     args = parser.parse_args()
     results, out = ROOT / args.results, ROOT / args.out

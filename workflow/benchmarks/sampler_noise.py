@@ -22,12 +22,13 @@ import numpy as np
 import pandas as pd
 from harness import ROOT, SUBSET, publish
 
+from clothscope.core.config import schema_defaults
 from clothscope.core.imageio import read_exr
 from clothscope.core.runtime import mitsuba_for
 from clothscope.core.schema import load_schema
 from clothscope.fit.integrator import NAME as UNSHADOWED
 from clothscope.fit.model import build_scene
-from clothscope.fit.normals import ALBEDO_FILE, NormalSettings
+from clothscope.fit.normals import ALBEDO_FILE
 from clothscope.fit.stage import load_state
 
 #: the samplers a fit stage may use (``fit.normals.sampler`` in the config schema)
@@ -67,7 +68,7 @@ def summary(table: pd.DataFrame) -> str:
     noise.columns = [f"noise, {c} spp" for c in noise.columns]
     ms.columns = [f"ms, {c} spp" for c in ms.columns]
     return ("# Render noise per sampler on fitted scenes\n\n"
-            f"The normal-map stage renders with `{NormalSettings().sampler}` (`fit.normals.sampler`). Noise of one "
+            f"The normal-map stage renders with `{schema_defaults()['fit']['normals']['sampler']}` (`fit.normals.sampler`). Noise of one "
             f"{RESOLUTION} px render "
             "relative to its root mean square (from pairs of renders with different seeds), and one render's wall "
             f"time on one Dr.Jit thread; medians over {table['image_id'].nunique()} fitted images "

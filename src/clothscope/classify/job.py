@@ -63,9 +63,9 @@ def write_summary(reports_dir: str | os.PathLike[str], title: str, feature_set: 
 
 def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.PathLike[str], source: str, reg: float | str,
                  reports_dir: str | os.PathLike[str], model_dir: str | os.PathLike[str],
-                 log: Any = None, feature_set: str = "auto",
+                 log: Any = None, *, feature_set: str,
                  comparison_csv: str | os.PathLike[str] | None = None,
-                 photo_table_path: str | os.PathLike[str] | None = None, subspace: str = "none",
+                 photo_table_path: str | os.PathLike[str] | None = None, subspace: str,
                  settings: dict[str, Any] | None = None) -> dict[str, Any]:
     """Run the classifier stage for one normal source.
 

@@ -248,7 +248,7 @@ def file_problem(path: str | os.PathLike[str]) -> str | None:
 
 
 def decode_image(
-    path: str | os.PathLike[str], min_px: int = 64, max_megapixels: float = 100.0, clip_threshold: float = 0.98
+    path: str | os.PathLike[str], min_px: int, max_megapixels: float, clip_threshold: float
 ) -> DecodedImage:
     """Decode any supported image file to linear RGB.
 

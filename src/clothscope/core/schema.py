@@ -6,6 +6,7 @@ reported as ``<file>: <where>: <problem>`` and never as a traceback.
 from __future__ import annotations
 
 import copy
+import math
 import os
 from pathlib import Path
 from typing import Any
@@ -45,6 +46,9 @@ def validate(instance: Any, schema: dict[str, Any], source: str) -> Any:
         One line: ``source: key path: message`` for the first error found.
     """
     filled = fill_defaults(instance, schema)
+    for where, value in _numbers(filled, ()):
+        if not math.isfinite(value):  # JSON Schema's ranges let NaN through
+            raise InputError(f"{source}: {'.'.join(where) or 'top level'}: {value!r} is not a finite number")
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(filled), key=lambda e: list(e.absolute_path))
     if errors:
@@ -53,6 +57,18 @@ def validate(instance: Any, schema: dict[str, Any], source: str) -> Any:
         message = error.message.replace("\n", " ")
         raise InputError(f"{source}: {where}: {message}")
     return filled
+
+
+def _numbers(instance: Any, where: tuple[str, ...]):
+    """``(key path, number)`` of every float in ``instance`` (nested mappings and lists)."""
+    if isinstance(instance, float):
+        yield where, instance
+    elif isinstance(instance, dict):
+        for key, value in instance.items():
+            yield from _numbers(value, where + (str(key),))
+    elif isinstance(instance, (list, tuple)):
+        for index, value in enumerate(instance):
+            yield from _numbers(value, where + (str(index),))
 
 
 def deep_merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:

@@ -18,9 +18,9 @@ import pandas as pd
 from scipy import ndimage
 
 from clothscope.core.atomic import write_text
+from clothscope.core.config import settings
 from clothscope.core.imageio import read_exr
 from clothscope.core.mesh import grid_normals
-from clothscope.features.paper import SpectrumSettings
 from clothscope.features.period import thread_period
 from clothscope.fit.model import plane_grid
 from clothscope.fit.stage import STATE_FILE, load_state
@@ -153,7 +153,7 @@ def period_error(fitted_period_px: float | None, truth: dict[str, Any], scale: f
 def fitted_period_px(normals: np.ndarray, texels_per_pixel: float) -> float | None:
     """Thread period (image px) from the spectrum of a fitted normal map (:func:`clothscope.features.period.thread_period`)."""
 
-    period = thread_period(normals, SpectrumSettings())
+    period = thread_period(normals, settings("features"))  # the schema's default spectrum settings
     return None if period is None else float(period / texels_per_pixel)
 
 

@@ -45,12 +45,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import ndimage
 
-from clothscope.core.fourier import WINDOWS, centred_spectrum, radius_grid, upper_half_plane
+from clothscope.core.fourier import centred_spectrum, radius_grid, upper_half_plane
 
-#: Radius normalisations :class:`SpectrumSettings` accepts (see the module docstring).
-RADIUS_NORMALISATIONS = ("max", "strong_max", "strongest")
-#: Peak counts :class:`SpectrumSettings` accepts for the ``n_peaks`` feature.
-PEAK_COUNTS = ("all", "strong")
 #: Smallest accepted normal-map side, in texels.
 MIN_SIZE = 16
 #: Peak-to-peak variation of the z map below which the map counts as flat.
@@ -61,7 +57,7 @@ MIN_RING_BINS = 64
 
 @dataclass(frozen=True)
 class SpectrumSettings:
-    """Knobs of the normal-map spectrum analysis (``spectrum:`` in the config).
+    """Knobs of the normal-map spectrum analysis (``features:`` in the config schema, which holds the defaults).
 
     Parameters
     ----------
@@ -80,13 +76,13 @@ class SpectrumSettings:
         given; both are scaled by ``N / reference_resolution`` for an N-texel
         map. 1024 is a documented guess (see the module docstring).
     radius_normalisation : str
-        What the peak radii are divided by: ``"strong_max"`` (default) the
+        What the peak radii are divided by: ``"strong_max"`` (the schema default) the
         largest radius among the *strong* peaks, those at least
         ``strong_fraction`` as high as the highest; ``"max"`` the largest
         radius among all peaks found (the paper's ``R_m``); ``"strongest"``
         the radius of the highest peak (so ``r_1 == 1``).
     peak_count : str
-        The ``n_peaks`` feature: ``"strong"`` (default) the number of strong
+        The ``n_peaks`` feature: ``"strong"`` (the schema default) the number of strong
         peaks; ``"all"`` the number of all peaks found (the paper's ``|S|``).
     strong_fraction : float
         In (0, 1]: a peak is strong when its height is at least this fraction
@@ -99,53 +95,23 @@ class SpectrumSettings:
         map's own noise, whatever its colour: at 6, white or smoothed noise maps
         of 64-512 texels give under one false peak each on average
         (``tests/test_spectrum.py`` bounds it), where the paper's test finds
-        dozens. 0 (default) turns the test off: the paper's Algorithm 2 (see
+        dozens. 0 (the schema default) turns the test off: the paper's Algorithm 2 (see
         docs/design.md for why it is not on by default).
 
-    ``SpectrumSettings(radius_normalisation="max", peak_count="all", significance=0)``
-    is the paper-faithful Algorithm 2 (:meth:`paper` returns it).
+    ``radius_normalisation="max", peak_count="all", significance=0`` is the
+    paper-faithful Algorithm 2 (:meth:`paper` returns such settings).
     """
 
-    n_peaks: int = 2
-    alpha: float = 2.0
-    dc_radius: float = 20.0
-    peak_size: float = 15.0
-    window: str = "hann"
-    reference_resolution: int = 1024
-    radius_normalisation: str = "strong_max"
-    peak_count: str = "strong"
-    strong_fraction: float = 0.5
-    significance: float = 0.0
-
-    def __post_init__(self) -> None:
-        if isinstance(self.n_peaks, bool) or not isinstance(self.n_peaks, (int, np.integer)) or self.n_peaks < 1:
-            raise ValueError(f"n_peaks must be an integer >= 1, got {self.n_peaks!r}")
-        for name in ("alpha", "dc_radius", "peak_size"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, float, np.number)) or not math.isfinite(value) or value <= 0:
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-        if self.window not in WINDOWS:
-            raise ValueError(f"window must be one of {', '.join(WINDOWS)}, got {self.window!r}")
-        if self.radius_normalisation not in RADIUS_NORMALISATIONS:
-            raise ValueError(
-                f"radius_normalisation must be one of {', '.join(RADIUS_NORMALISATIONS)}, got {self.radius_normalisation!r}"
-            )
-        if not isinstance(self.significance, (int, float, np.number)) or not (math.isfinite(self.significance) and self.significance >= 0):
-            raise ValueError(f"significance must be a finite number >= 0, got {self.significance!r}")
-        if self.peak_count not in PEAK_COUNTS:
-            raise ValueError(f"peak_count must be one of {', '.join(PEAK_COUNTS)}, got {self.peak_count!r}")
-        if (
-            isinstance(self.strong_fraction, bool)
-            or not isinstance(self.strong_fraction, (int, float, np.number))
-            or not 0.0 < self.strong_fraction <= 1.0
-        ):
-            raise ValueError(f"strong_fraction must be a number in (0, 1], got {self.strong_fraction!r}")
-        if (
-            isinstance(self.reference_resolution, bool)
-            or not isinstance(self.reference_resolution, (int, np.integer))
-            or self.reference_resolution < MIN_SIZE
-        ):
-            raise ValueError(f"reference_resolution must be an integer >= {MIN_SIZE}, got {self.reference_resolution!r}")
+    n_peaks: int
+    alpha: float
+    dc_radius: float
+    peak_size: float
+    window: str
+    reference_resolution: int
+    radius_normalisation: str
+    peak_count: str
+    strong_fraction: float
+    significance: float
 
     def paper(self) -> SpectrumSettings:
         """These settings with the paper's ``R_m`` normalisation and peak count, and no noise-calibrated test."""
@@ -426,7 +392,7 @@ def count_peaks(peaks: list[Peak], mode: str, strong_fraction: float) -> int:
     raise ValueError(f"unknown peak_count {mode!r}")
 
 
-def _normalise(peaks: list[Peak], normalisation: str = "max", strong_fraction: float = 0.5) -> list[Peak]:
+def _normalise(peaks: list[Peak], normalisation: str, strong_fraction: float) -> list[Peak]:
     """Set ``radius_norm = radius / R`` (:func:`reference_radius`) and ``height = snr / max snr``."""
     r_max = reference_radius(peaks, normalisation, strong_fraction)
     snr_max = max((p.snr for p in peaks), default=0.0)

@@ -87,14 +87,6 @@ class StructureSettings:
     peak_threshold: float
     fundamental_fraction: float
 
-    def __post_init__(self) -> None:
-        if not 0.0 <= self.border < 0.4:
-            raise ValueError(f"border must be in [0, 0.4), got {self.border}")
-        if not self.peak_threshold > 1.0:
-            raise ValueError(f"peak_threshold must exceed 1, got {self.peak_threshold}")
-        if not 0.0 < self.fundamental_fraction <= 1.0:
-            raise ValueError(f"fundamental_fraction must be in (0, 1], got {self.fundamental_fraction}")
-
 
 @dataclass(frozen=True)
 class Lattice:

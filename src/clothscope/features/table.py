@@ -52,6 +52,7 @@ used for training or scoring.
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -90,10 +91,7 @@ FITTED_FIELDS = ("relief", "shading")
 #: Status of a usable row.
 STATUS_OK = "ok"
 #: Keys of the ``features:`` config section that are SpectrumSettings fields.
-SPECTRUM_KEYS = (
-    "n_peaks", "alpha", "dc_radius", "peak_size", "window", "reference_resolution",
-    "radius_normalisation", "peak_count", "strong_fraction", "significance",
-)
+SPECTRUM_KEYS = tuple(f.name for f in dataclasses.fields(SpectrumSettings))
 #: Extra feature columns (spectrum.extra_features and surface_features), present only with ``extras: true``.
 EXTRA_COLUMNS = ("x_angle_deg", "x_low_radius_ratio", "x_strong_to_low_radius", "x_flatness", "x_peak_fraction",
                  "x_tilt_mean_deg", "x_tilt_anisotropy", "x_period_px")
@@ -117,8 +115,8 @@ def specular_norm(specular: float) -> float:
 
 
 def spectrum_settings(features_config: dict[str, Any]) -> SpectrumSettings:
-    """The :class:`SpectrumSettings` of a ``features:`` config section (other keys ignored)."""
-    return SpectrumSettings(**{k: features_config[k] for k in SPECTRUM_KEYS if k in features_config})
+    """The :class:`SpectrumSettings` of a validated ``features:`` config section (other keys ignored)."""
+    return SpectrumSettings(**{k: features_config[k] for k in SPECTRUM_KEYS})
 
 
 def structure_settings(features_config: dict[str, Any]) -> StructureSettings:
@@ -460,7 +458,7 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
     """The ``features`` rule for one image: load its source, write the one-row Parquet and the plot."""
     settings = spectrum_settings(features_config)
     structure = structure_settings(features_config)
-    extras = bool(features_config.get("extras", False))
+    extras = bool(features_config["extras"])
     schema = feature_schema(settings.n_peaks, extras)
     loaded = load_normal_input(source, image_path, source_dir, features_config.get("fitted_field"))
     provenance = {"normal_source": source, "mitsuba_variant": loaded.mitsuba_variant or "unknown",

@@ -41,23 +41,23 @@ from clothscope.fit.tilt import TiltEstimate, estimate_tilt
 
 @dataclass(frozen=True)
 class GeometrySettings:
-    """Knobs of the geometry stage (``fit.geometry`` in the config)."""
+    """Knobs of the geometry stage (``fit.geometry`` in the config schema, which holds the defaults)."""
 
-    resolution: int = 64
-    spp: int = 4
-    sampler: str = "multijitter"
-    iterations: int = 150
-    learning_rate: float = 0.05
-    vertices_per_side: int = 64
-    large_steps_lambda: float = 1000.0
-    fov_deg: float = 25.0
-    margin: float = 0.06
-    initial_roughness: float = 0.6
-    initial_specular: float = 0.5
-    min_roughness: float = 0.05
-    pin_tilt: bool = True
-    tilt_prior_deg: float = 5.0
-    fit_light: bool = True
+    resolution: int
+    spp: int
+    sampler: str
+    iterations: int
+    learning_rate: float
+    vertices_per_side: int
+    large_steps_lambda: float
+    fov_deg: float
+    margin: float
+    initial_roughness: float
+    initial_specular: float
+    min_roughness: float
+    pin_tilt: bool
+    tilt_prior_deg: float
+    fit_light: bool
 
 
 def initial_base_color(target: Target, camera: FitCamera, light: PointLight) -> np.ndarray:
@@ -186,7 +186,7 @@ def pinned_plane(grid: np.ndarray, pin_tilt: bool) -> np.ndarray:
     return z - pinned_depth(z, grid[..., 0].ravel(), grid[..., 1].ravel(), tilt_slopes(grid, True), np.sum) - z.mean()
 
 
-def grid_from(mi: ModuleType, steps: Any, u: np.ndarray, base: np.ndarray, pin_tilt: bool = True) -> np.ndarray:
+def grid_from(mi: ModuleType, steps: Any, u: np.ndarray, base: np.ndarray, pin_tilt: bool) -> np.ndarray:
     """(n, n, 3) grid of the differential coordinates ``u``: x, y of ``base``, depth pinned like the fit's.
 
     The pinned plane is ``base``'s (the tilt the fit started from).

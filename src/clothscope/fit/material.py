@@ -22,14 +22,14 @@ from clothscope.fit.stage import Target, image_loss, logit, render, sigmoid
 
 @dataclass(frozen=True)
 class MaterialSettings:
-    """Knobs of the material stage (``fit.material`` in the config)."""
+    """Knobs of the material stage (``fit.material`` in the config schema, which holds the defaults)."""
 
-    resolution: int = 128
-    spp: int = 4
-    sampler: str = "multijitter"
-    iterations: int = 60
-    learning_rate: float = 0.05
-    min_roughness: float = 0.05
+    resolution: int
+    spp: int
+    sampler: str
+    iterations: int
+    learning_rate: float
+    min_roughness: float
 
 
 def material_latents(material: Material, min_roughness: float) -> dict[str, np.ndarray]:

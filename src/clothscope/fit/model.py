@@ -122,7 +122,7 @@ class FitScene:
         }
 
 
-def plane_grid(camera: FitCamera, n: int = 64, margin: float = 0.06) -> np.ndarray:
+def plane_grid(camera: FitCamera, n: int, margin: float) -> np.ndarray:
     """(n, n, 3) flat grid covering the view plus ``margin`` (fraction) on each side, rows along +y."""
     half = camera.view_width / 2.0 * (1.0 + margin)
     coords = np.linspace(-half, half, n)

@@ -70,39 +70,30 @@ from clothscope.fit.model import BSDF_KEYS, FitScene, Material, build_scene, fla
 from clothscope.fit.stage import Target, image_loss, render, sigmoid
 from clothscope.prepare.shading import shading
 
-#: Starts of the height map (``fit.normals.initial_relief``): flat, or the photo's shading (:func:`initial_height`).
-INITIAL_RELIEFS = ("flat", "shading")
-
 
 @dataclass(frozen=True)
 class NormalSettings:
-    """Knobs of the normal-map stage (``fit.normals`` in the config)."""
+    """Knobs of the normal-map stage (``fit.normals`` in the config schema, which holds the defaults)."""
 
-    resolution: int = 256
-    spp: int = 4  # samples per pixel of the image the loss compares with the photo
-    spp_grad: int = 2  # samples per pixel of the gradient pass (0: same as spp)
-    sampler: str = "multijitter"  # Mitsuba sampler of the stage's renders
-    texture: int = 256
-    iterations: int = 80
-    learning_rate: float = 0.05
-    patience: int = 10
-    min_improvement: float = 0.002
-    joint_iterations: int = 200
-    joint_learning_rate: float = 0.02
-    joint_height_learning_rate: float = 0.02  # the height map's step in the joint phase (the BSDF's is joint_learning_rate)
-    min_roughness: float = 0.05
-    albedo_weight: float = 0.0  # > 0: fit a shade texture with this L1 prior weight (0: one colour)
-    smoothness: float = 0.0  # weight of the curvature prior: mean squared Laplacian of the height map (texel units)
-    large_steps_lambda: float = 0.0  # > 0: the height map descends in Large Steps coordinates (I + lambda L) h, Uniform Adam
-    colour_model: str = "auto"  # auto, one_colour or dye_layout (clothscope.fit.colour)
-    initial_relief: str = "flat"  # flat, or shading: the height map starts bright-high, dark-low (see initial_height)
-    initial_slope: float = 0.3  # RMS slope of the shading start (tangent of the tilt)
-
-    def __post_init__(self) -> None:
-        if self.initial_relief not in INITIAL_RELIEFS:
-            raise ValueError(f"initial_relief must be one of {', '.join(INITIAL_RELIEFS)}, got {self.initial_relief!r}")
-        if not self.initial_slope > 0:
-            raise ValueError(f"initial_slope must be > 0, got {self.initial_slope}")
+    resolution: int
+    spp: int  # samples per pixel of the image the loss compares with the photo
+    spp_grad: int  # samples per pixel of the gradient pass (0: same as spp)
+    sampler: str  # Mitsuba sampler of the stage's renders
+    texture: int
+    iterations: int
+    learning_rate: float
+    patience: int
+    min_improvement: float
+    joint_iterations: int
+    joint_learning_rate: float
+    joint_height_learning_rate: float  # the height map's step in the joint phase (the BSDF's is joint_learning_rate)
+    min_roughness: float
+    albedo_weight: float  # > 0: fit a shade texture with this L1 prior weight (0: one colour)
+    smoothness: float  # weight of the curvature prior: mean squared Laplacian of the height map (texel units)
+    large_steps_lambda: float  # > 0: the height map descends in Large Steps coordinates (I + lambda L) h, Uniform Adam
+    colour_model: str  # auto, one_colour or dye_layout (clothscope.fit.colour)
+    initial_relief: str  # flat, or shading: the height map starts bright-high, dark-low (see initial_height)
+    initial_slope: float  # RMS slope of the shading start (tangent of the tilt)
 
 
 #: File of the fitted shade texture in the stage's output folder (three equal channels).

@@ -42,30 +42,22 @@ PERIOD_PEAK_FRACTION = 1.0
 
 @dataclass(frozen=True)
 class PrepareSettings:
-    """Knobs of the prepare stage (``prepare:`` in the config)."""
+    """Knobs of the prepare stage (``prepare:`` in the config schema, which holds the defaults)."""
 
-    working_resolution: int = 256
-    min_input_px: int = 64
-    max_megapixels: float = 100.0
-    clip_threshold: float = 0.98
-    max_clipped_fraction: float = 0.5
-    scale: str = "frame"  # "threads": crop so the thread period lands in period_band (needs a lattice test)
-    period_band: tuple[float, float] = (8.0, 16.0)  # wanted thread period, working pixels
-    period_window: int = 1024  # side of the native-resolution centre square the period is measured on
-    period_field: str = "shading"  # what the period is measured on: "shading" (yarn colours divided out) or "luminance"
+    working_resolution: int
+    min_input_px: int
+    max_megapixels: float
+    clip_threshold: float
+    max_clipped_fraction: float
+    scale: str  # "threads": crop so the thread period lands in period_band (needs a lattice test)
+    period_band: tuple[float, float]  # wanted thread period, working pixels
+    period_window: int  # side of the native-resolution centre square the period is measured on
+    period_field: str  # what the period is measured on: "shading" (yarn colours divided out) or "luminance"
 
-    def __post_init__(self) -> None:
-        if self.working_resolution < 16:
-            raise ValueError(f"working_resolution must be >= 16, got {self.working_resolution}")
-        if not 0.0 < self.clip_threshold <= 1.0:
-            raise ValueError(f"clip_threshold must be in (0, 1], got {self.clip_threshold}")
-        if self.period_field not in ("shading", "luminance"):
-            raise ValueError(f"period_field must be 'shading' or 'luminance', got {self.period_field!r}")
-        if self.scale not in ("frame", "threads"):
-            raise ValueError(f"scale must be 'frame' or 'threads', got {self.scale!r}")
+    def __post_init__(self) -> None:  # the schema checks every range; it cannot say low < high
         low, high = self.period_band
-        if not 2.0 <= low < high:
-            raise ValueError(f"period_band must be [low, high] with 2 <= low < high, got {list(self.period_band)}")
+        if not low < high:
+            raise ValueError(f"period_band must be [low, high] with low < high, got {list(self.period_band)}")
         object.__setattr__(self, "period_band", (float(low), float(high)))
 
 

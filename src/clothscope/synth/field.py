@@ -327,8 +327,8 @@ class FieldPhoto:
     truth: dict[str, Any]
 
 
-def synthesize_field(fabric: str, number: int, seed: int, spp: int = 16, max_mesh_resolution: int = 2048,
-                     variant: str = "auto", threads: int | None = None, scale: float = 1.0) -> FieldPhoto:
+def synthesize_field(fabric: str, number: int, seed: int, spp: int, max_mesh_resolution: int,
+                     variant: str, threads: int | None = None, scale: float = 1.0) -> FieldPhoto:
     """Generate field image number ``number`` of ``fabric``.
 
     ``scale`` < 1 renders the same scene at a fraction of its native

@@ -218,8 +218,8 @@ class Synthetic:
     truth: dict[str, Any]
 
 
-def synthesize(fabric: str, dye_index: int, seed: int, resolution: int = 256, spp: int = 64,
-               mesh_resolution: int = 768, variant: str = "auto", threads: int | None = None) -> Synthetic:
+def synthesize(fabric: str, dye_index: int, seed: int, resolution: int, spp: int,
+               mesh_resolution: int, variant: str, threads: int | None = None) -> Synthetic:
     """Generate one synthetic photo of ``fabric`` in dye number ``dye_index``.
 
     Raises
@@ -315,6 +315,6 @@ def save(synthetic: Synthetic, image_path: str | Path) -> dict[str, Path]:
     return paths
 
 
-def dataset_index(colors_per_class: int = 6) -> list[tuple[str, int, str]]:
+def dataset_index(colors_per_class: int) -> list[tuple[str, int, str]]:
     """(fabric class, dye index, image id) of every image of the default set."""
     return [(fabric, i, f"{fabric}_{list(DYES)[i]}") for fabric in FABRICS for i in range(colors_per_class)]

@@ -1,0 +1,84 @@
+"""The workflow config's defaults, and settings objects built from a validated config.
+
+Every default and range of the config lives in one place, the JSON Schema
+``workflow/schemas/config.schema.yaml``; the settings dataclasses restate none of them.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+import importlib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from clothscope.core.schema import deep_merge, load_schema, validate
+
+#: The config schema (the package is installed editable from ``src/``, so the repository is three folders up).
+SCHEMA_PATH = Path(__file__).resolve().parents[3] / "workflow" / "schemas" / "config.schema.yaml"
+
+#: Config section (dotted) -> its settings class, ``module:Class``, imported when first asked for.
+SECTIONS = {
+    "prepare": "clothscope.prepare.image:PrepareSettings",
+    "fit.geometry": "clothscope.fit.geometry:GeometrySettings",
+    "fit.material": "clothscope.fit.material:MaterialSettings",
+    "fit.normals": "clothscope.fit.normals:NormalSettings",
+    "features": "clothscope.features.paper:SpectrumSettings",  # its fields are a subset of the section's keys
+    "features.structure": "clothscope.features.structure:StructureSettings",
+}
+
+
+@functools.cache
+def _schema() -> dict[str, Any]:
+    return load_schema(SCHEMA_PATH)
+
+
+def config_schema() -> dict[str, Any]:
+    """The config schema, read from :data:`SCHEMA_PATH` (a fresh copy)."""
+    return load_schema(SCHEMA_PATH)
+
+
+def schema_defaults() -> dict[str, Any]:
+    """The config every key of which takes its schema default (a fresh dict on each call)."""
+    return validate({}, _schema(), "schema defaults")
+
+
+def settings_class(section: str) -> type:
+    """The settings dataclass of a config ``section`` (a key of :data:`SECTIONS`)."""
+    module, name = SECTIONS[section].split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def settings(section: str, config: Mapping[str, Any] | None = None, /, **overrides: Any) -> Any:
+    """The settings object of a config section.
+
+    Parameters
+    ----------
+    section : str
+        Dotted config section, a key of :data:`SECTIONS` (``"fit.normals"``).
+    config : mapping, optional
+        A whole config; None takes the schema's defaults.
+    **overrides
+        Keys of the section that replace the config's.
+
+    Returns
+    -------
+    object
+        An instance of the section's settings class.
+
+    Raises
+    ------
+    clothscope.core.schema.InputError
+        One line naming the key, when the config with the overrides breaks the schema.
+    """
+    keys = section.split(".")
+    nested: dict[str, Any] = dict(overrides)
+    for key in reversed(keys):
+        nested = {key: nested}
+    merged = validate(deep_merge(dict(schema_defaults() if config is None else config), nested), _schema(),
+                      f"settings({section!r})")
+    values = merged
+    for key in keys:
+        values = values[key]
+    cls = settings_class(section)
+    return cls(**{field.name: values[field.name] for field in dataclasses.fields(cls)})
