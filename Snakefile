@@ -2,14 +2,14 @@
 # This file is the table of contents; each stage's rules live in workflow/rules/.
 #
 #   synthesize  (optional) re-render the embedded synthetic dataset and check it
-#   prepare     decode each photo into a linear working image, or reject it
+#   prepare     decode each photo into a linear working image, or reject it;
+#               rejection_report lists every rejected image
 #   fit         inverse rendering: fit_geometry -> fit_material -> fit_normals
 #   features    Fourier features of each normal map (fitted or truth) -> feature_table
 #   classify    QDA: LOOCV reports, model, query predictions, per-image records; feature sets
 #               side by side (fitted maps against the photo alone);
 #               paper_tables (the paper's 3 experiments) and sweep (settings grid)
 #   physics     ArcSim cloth parameters of each image from its class posteriors
-#   reports     list every rejected image
 from snakemake.utils import min_version
 
 min_version("9.0")
@@ -25,7 +25,6 @@ include: "workflow/rules/fit.smk"
 include: "workflow/rules/features.smk"
 include: "workflow/rules/classify.smk"
 include: "workflow/rules/physics.smk"
-include: "workflow/rules/reports.smk"
 
 
 rule all:

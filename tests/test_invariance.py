@@ -18,9 +18,9 @@ import pandas as pd
 import pytest
 from conftest import SCHEMAS, SYNTHETIC, decode
 
-from clothscope.core.config import settings as config_settings
 from clothscope.classify.loocv import loocv
 from clothscope.classify.qda import make_qda
+from clothscope.core.config import settings as config_settings
 from clothscope.core.imageio import read_png
 from clothscope.core.schema import load_schema, validate
 from clothscope.core.truth import decode_normal

@@ -12,8 +12,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
-from clothscope.core.config import settings as config_settings
 from clothscope.core.atomic import atomic_dir, write_json
+from clothscope.core.config import settings as config_settings
 from clothscope.core.imageio import ImageRejected, linear_to_srgb, srgb_to_linear, write_exr
 from clothscope.features.structure import StructureSettings
 from clothscope.prepare.image import prepare_image, to_working_resolution

@@ -23,7 +23,7 @@ from clothscope.core.imageio import read_exr
 from clothscope.core.mesh import grid_normals
 from clothscope.features.period import thread_period
 from clothscope.fit.model import plane_grid
-from clothscope.fit.stage import STATE_FILE, load_state
+from clothscope.fit.stage import NORMAL_FILE, STATE_FILE, load_state
 from clothscope.synth.generate import fold_surface
 
 
@@ -213,7 +213,7 @@ def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: st
     fit, _ = load_state(normals_dir)
     material = fit.material
 
-    normals = read_exr(normals_dir / "normal.exr")
+    normals = read_exr(normals_dir / NORMAL_FILE)
     period = fitted_period_px(normals, state["texels_per_pixel"])
     row.update(
         psnr_db=state["psnr_db"],

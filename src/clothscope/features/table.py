@@ -83,6 +83,8 @@ from clothscope.features.structure import (
     structure_features,
 )
 from clothscope.fit.normals import SHADE_FILE
+from clothscope.fit.stage import HEIGHT_FILE, NORMAL_FILE, STATE_FILE
+from clothscope.prepare.image import IMAGE_FILE, STATUS_FILE
 
 #: Where the maps come from: synthetic ground truth, the inverse renderer, or the photo alone.
 NORMAL_SOURCES = ("truth", "fitted", "photo")
@@ -362,7 +364,7 @@ def load_fitted(normals_dir: str | os.PathLike[str], field: str) -> NormalInput:
     if field not in FITTED_FIELDS:
         raise ValueError(f"fitted field must be one of {', '.join(FITTED_FIELDS)}, got {field!r}")
     folder = Path(normals_dir)
-    state = _read_record(folder / "state.json", "")
+    state = _read_record(folder / STATE_FILE, "")
     if isinstance(state, NormalInput):
         return state
     variant = str((state.get("runtime") or {}).get("mitsuba_variant", ""))
@@ -372,8 +374,8 @@ def load_fitted(normals_dir: str | os.PathLike[str], field: str) -> NormalInput:
         return _unusable(status, str(state.get("reason") or f"fit status {state.get('status')!r}"), variant)
     try:
         material = state["material"]
-        normals = _read_three_channels(folder / "normal.exr")
-        height = read_exr(folder / "height.exr")[..., 0].astype(np.float64)
+        normals = _read_three_channels(folder / NORMAL_FILE)
+        height = read_exr(folder / HEIGHT_FILE)[..., 0].astype(np.float64)
         shade = read_exr(folder / SHADE_FILE)[..., 0].astype(np.float64) if (folder / SHADE_FILE).is_file() else None
         if not all(np.all(np.isfinite(a)) for a in (normals, height, 0.0 if shade is None else shade)):
             raise ValueError(f"normal.exr, height.exr or {SHADE_FILE} holds non-finite values")
@@ -387,13 +389,13 @@ def load_fitted(normals_dir: str | os.PathLike[str], field: str) -> NormalInput:
 def load_photo(prepared_dir: str | os.PathLike[str]) -> NormalInput:
     """The prepared photo's linear luminance (Rec. 709 weights), for the ``photo`` source; no BSDF."""
     folder = Path(prepared_dir)
-    status = _read_record(folder / "status.json", "photo")
+    status = _read_record(folder / STATUS_FILE, "photo")
     if isinstance(status, NormalInput):
         return status
     if status.get("status") != "accepted":
         return _unusable("skipped", f"photo rejected: {status.get('reason') or status.get('status')}", "photo")
     try:
-        luminance = photo_luminance(_read_three_channels(folder / "image.exr").astype(np.float64))
+        luminance = photo_luminance(_read_three_channels(folder / IMAGE_FILE).astype(np.float64))
         if not np.all(np.isfinite(luminance)):
             raise ValueError("image.exr holds non-finite values")
         return NormalInput(luminance, luminance, 0.0, 0.0, STATUS_OK, "", "photo", 1.0)
@@ -445,6 +447,13 @@ def concat_rows(paths: list[str | os.PathLike[str]]) -> pa.Table:
     ids = table.column("image_id").to_pylist()
     if len(set(ids)) != len(ids):
         raise ValueError("feature rows repeat an image_id")
+    return table
+
+
+def feature_table_job(rows: list[str | os.PathLike[str]], target: str | os.PathLike[str]) -> pa.Table:
+    """The ``feature_table`` rule: the one-row files of :func:`features_job` concatenated into one Parquet table, atomically."""
+    table = concat_rows(rows)
+    write_with(target, lambda tmp: pq.write_table(table, tmp))
     return table
 
 

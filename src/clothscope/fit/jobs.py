@@ -27,6 +27,9 @@ from clothscope.fit.material import MaterialSettings, fit_material
 from clothscope.fit.model import PREVIEW_SAMPLER, FitScene, build_scene, shaded_texture
 from clothscope.fit.normals import ALBEDO_FILE, SHADE_FILE, NormalSettings, fit_normals, height_to_normals_np
 from clothscope.fit.stage import (
+    HEIGHT_FILE,
+    LOSS_FILE,
+    NORMAL_FILE,
     STATE_FILE,
     SkipStage,
     Target,
@@ -76,7 +79,7 @@ def _write_common(tmp: Path, mi: Any, fit: FitScene, photo: Target, curve: list[
     """Outputs every stage writes: loss curve, side-by-side PNG, mesh, scene file and state."""
     rendered, scene = _render_fit(mi, fit, photo.resolution, texture, albedo)
     record["psnr_db"] = psnr(rendered, photo)
-    write_loss_curve(tmp / "loss.csv", curve)
+    write_loss_curve(tmp / LOSS_FILE, curve)
     write_comparison(tmp / "compare.png", photo, rendered)
     scene.shapes()[0].write_ply(str(tmp / MESH_FILE))
     if albedo is not None:
@@ -136,8 +139,8 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
         height, fit.material, loops, shade = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, settings,
                                                          log, colour)
         normals = height_to_normals_np(height).astype(np.float32)
-        write_exr(tmp / "normal.exr", normals)
-        write_exr(tmp / "height.exr", np.repeat(height[..., None], 3, axis=2).astype(np.float32))
+        write_exr(tmp / NORMAL_FILE, normals)
+        write_exr(tmp / HEIGHT_FILE, np.repeat(height[..., None], 3, axis=2).astype(np.float32))
         if shade is not None:
             write_exr(tmp / SHADE_FILE, np.repeat(shade[..., None], 3, axis=2).astype(np.float32))
         write_png(tmp / "normal.png", normals * 0.5 + 0.5)

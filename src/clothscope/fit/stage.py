@@ -17,8 +17,12 @@ from clothscope.core.imageio import decode_exr, linear_to_srgb, read_png, write_
 from clothscope.fit.model import PREVIEW_SAMPLER, FitCamera, FitScene, Material, PointLight
 from clothscope.prepare.image import CLIPPED_FILE, IMAGE_FILE, read_status, resize_channel
 
+#: Files of a fit stage's output folder: its record, the mesh grid, the loss curve, and the normal-map stage's maps.
 STATE_FILE = "state.json"
 GRID_FILE = "grid.npy"
+LOSS_FILE = "loss.csv"
+NORMAL_FILE = "normal.exr"
+HEIGHT_FILE = "height.exr"
 
 
 class SkipStage(Exception):
