@@ -21,6 +21,7 @@ from clothscope.core.imageio import read_png, write_exr
 from clothscope.core.schema import load_schema, validate
 from clothscope.core.truth import decode_normal, truth_paths
 from clothscope.features.paper import analyse_normal_map
+from clothscope.features.sources import lit_normals, load_fitted, load_truth
 from clothscope.features.structure import LBP_COLUMNS, STRUCTURE_COLUMNS, StructureSettings
 from clothscope.features.table import (
     EXTRA_COLUMNS,
@@ -29,9 +30,6 @@ from clothscope.features.table import (
     feature_row,
     feature_schema,
     features_job,
-    lit_normals,
-    load_fitted,
-    load_truth,
     paper_feature_columns,
     unusable_row,
     write_rows,
@@ -279,7 +277,7 @@ def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path)
 
 
 def test_photo_loader_reads_luminance_and_skips_rejected_photos(tmp_path):
-    from clothscope.features.table import load_photo
+    from clothscope.features.sources import load_photo
     from clothscope.prepare.image import prepare_image
 
     prepare_image("a", SYNTHETIC / "canvas" / "canvas_red.png", tmp_path / "a", config_settings("prepare", working_resolution=64, scale="frame"))

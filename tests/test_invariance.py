@@ -195,8 +195,8 @@ def test_refitted_thread_structure_survives_recolouring_rotation_and_zoom(tmp_pa
 
     from clothscope.core.imageio import linear_to_srgb, write_png
     from clothscope.evaluate.invariance import PHOTO_TRANSFORMS
+    from clothscope.features.sources import load_fitted
     from clothscope.features.structure import StructureSettings, structure_features
-    from clothscope.features.table import load_fitted
     from clothscope.fit import jobs
     from clothscope.prepare.image import prepare_image
 

@@ -104,7 +104,7 @@ def test_enum_tuples_of_the_code_are_the_schema_enums():
     from clothscope.classify.qda import SUBSPACES
     from clothscope.core.fourier import WINDOWS
     from clothscope.core.runtime import VARIANTS
-    from clothscope.features.table import FITTED_FIELDS, NORMAL_SOURCES
+    from clothscope.features.sources import FITTED_FIELDS, NORMAL_SOURCES
     from clothscope.fit.colour import COLOUR_MODELS
 
     for values, key in ((WINDOWS, "features.window"), (VARIANTS, "variant"), (FITTED_FIELDS, "features.fitted_field"),

@@ -233,7 +233,7 @@ def test_diagnosis_of_a_fit_that_equals_the_truth_finds_nothing_wrong(tmp_path):
 
     from clothscope.core.imageio import write_exr
     from clothscope.features.diagnosis import diagnosis_job
-    from clothscope.features.table import load_truth
+    from clothscope.features.sources import load_truth
 
     images = {}
     for image_id in ("canvas_red", "canvas_navy"):

@@ -24,8 +24,9 @@ from clothscope.classify.rows import posterior_column
 from clothscope.core.atomic import write_json
 from clothscope.core.config import schema_defaults
 from clothscope.core.schema import deep_merge
+from clothscope.features.sources import STATUS_OK
 from clothscope.features.structure import StructureSettings
-from clothscope.features.table import STATUS_OK, features_job
+from clothscope.features.table import features_job
 from clothscope.fit import jobs
 from clothscope.fit.geometry import GeometrySettings
 from clothscope.fit.material import MaterialSettings

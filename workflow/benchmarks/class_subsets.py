@@ -22,7 +22,8 @@ from harness import ROOT, publish, validated_config
 from clothscope.classify.feature_sets import classifier_candidates, joined_table
 from clothscope.classify.loocv import loocv
 from clothscope.classify.paper_tables import PAPER_EXPERIMENTS
-from clothscope.features.table import STATUS_OK, read_table
+from clothscope.features.sources import STATUS_OK
+from clothscope.features.table import read_table
 
 
 def classify_config() -> dict:

@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 from class_subsets import classify_config
 from harness import ROOT, publish, snakemake, write_sheet

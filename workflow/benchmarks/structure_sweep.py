@@ -25,8 +25,8 @@ import pandas as pd
 from harness import ROOT, publish, validated_config
 
 from clothscope.classify.feature_sets import FEATURE_SETS, common_images, score_feature_set
+from clothscope.features.sources import load_fitted, load_photo
 from clothscope.features.structure import StructureSettings, structure_features
-from clothscope.features.table import load_fitted, load_photo
 
 #: cells of the sweep: border x peak threshold at the default fundamental fraction, and the other fraction at the default
 CELLS = [*({"border": b, "peak_threshold": t, "fundamental_fraction": 0.3} for b in (0.0, 0.1, 0.2) for t in (5.0, 10.0)),

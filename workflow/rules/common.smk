@@ -87,7 +87,8 @@ def field_outputs():
 # {source} is the normal source: "fitted" (rule fit_normals) or "truth" (synthetic ground truth).
 from pathlib import Path
 
-from clothscope.features.table import NORMAL_SOURCES, row_settings
+from clothscope.features.sources import NORMAL_SOURCES
+from clothscope.features.table import row_settings
 from clothscope.classify.paper_tables import PAPER_EXPERIMENTS
 from clothscope.core.truth import truth_paths
 

@@ -18,8 +18,8 @@ import pandas as pd
 
 from clothscope.classify.loocv import loocv
 from clothscope.core.atomic import write_text
+from clothscope.features.sources import STATUS_OK
 from clothscope.features.structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS
-from clothscope.features.table import STATUS_OK
 
 #: Column groups of a feature table.
 BRDF_COLUMNS = ("roughness", "specular_norm")

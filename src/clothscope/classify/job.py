@@ -27,7 +27,8 @@ from clothscope.classify.reports import write_reports
 from clothscope.classify.rows import POSTERIOR_PREFIX, split_labelled
 from clothscope.core.atomic import write_json, write_text
 from clothscope.features.plots import plot_placeholder
-from clothscope.features.table import STATUS_OK, read_table
+from clothscope.features.sources import STATUS_OK
+from clothscope.features.table import read_table
 
 #: Per-image records (status, prediction, posteriors) in the reports folder, read by the ``physics`` rule.
 RECORDS_FILE = "records.json"

@@ -36,15 +36,8 @@ import pandas as pd
 from clothscope.classify.loocv import loocv
 from clothscope.core.atomic import write_text, write_with
 from clothscope.features.paper import SpectrumResult, SpectrumSettings, analyse_normal_map, count_peaks, peak_features
-from clothscope.features.table import (
-    STATUS_OK,
-    NormalInput,
-    load_normal_input,
-    paper_feature_columns,
-    read_table,
-    spectrum_settings,
-    specular_norm,
-)
+from clothscope.features.sources import STATUS_OK, NormalInput, load_normal_input
+from clothscope.features.table import paper_feature_columns, read_table, spectrum_settings, specular_norm
 
 
 @dataclass(frozen=True)

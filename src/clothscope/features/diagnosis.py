@@ -21,8 +21,8 @@ import pandas as pd
 
 from clothscope.core.atomic import write_text, write_with
 from clothscope.features.plots import plot_placeholder
+from clothscope.features.sources import load_fitted, load_truth
 from clothscope.features.structure import PROFILE_RHO, StructureSettings, structure_features
-from clothscope.features.table import load_fitted, load_truth
 
 PERIOD_TOLERANCE = 0.05
 

@@ -18,6 +18,8 @@ Everything is a deterministic function of ``(seed, class, image number)``.
 The truth maps cover the cloth square seen at the image centre, at the
 native resolution, so ``thread_period_px`` is the period in native image
 pixels at the centre of the frame.
+
+Over 400 lines because the draws, the scene and the imaging pipeline of one capture are kept together.
 """
 from __future__ import annotations
 

@@ -1,0 +1,171 @@
+"""Where a feature row's maps come from: the ground truth, a fit's output folder (relief or lit shading), or the prepared photo's luminance."""
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from clothscope.core.imageio import luminance as photo_luminance
+from clothscope.core.imageio import read_exr, read_png
+from clothscope.core.truth import decode_normal, truth_paths
+from clothscope.fit.normals import SHADE_FILE
+from clothscope.fit.stage import HEIGHT_FILE, NORMAL_FILE, STATE_FILE
+from clothscope.prepare.image import IMAGE_FILE, STATUS_FILE
+
+#: Where the maps come from: synthetic ground truth, the inverse renderer, or the photo alone.
+NORMAL_SOURCES = ("truth", "fitted", "photo")
+
+
+#: What the structure descriptor reads on fitted maps (``features.fitted_field``): the height map, or the normal map lit by the fitted light.
+FITTED_FIELDS = ("relief", "shading")
+
+
+#: Status of a usable row.
+STATUS_OK = "ok"
+
+
+def finite_number(value: Any, name: str) -> float:
+    number = float(value)
+    if not math.isfinite(number):
+        raise ValueError(f"{name} is not finite: {value!r}")
+    return number
+
+
+@dataclass
+class NormalInput:
+    """An image's maps and BSDF parameters from one source, or why there are none.
+
+    ``normals`` is what Algorithm 2 reads (normals or a grey-level map),
+    ``field`` what the structure descriptor reads (a relief, a shading or a luminance).
+    """
+
+    normals: np.ndarray | None
+    field: np.ndarray | None
+    roughness: float
+    specular: float
+    status: str
+    reason: str
+    mitsuba_variant: str
+    texels_per_pixel: float
+    shade: np.ndarray | None = None  # fitted shade texture, when the fit has one
+
+
+def unusable_input(status: str, reason: str, variant: str) -> NormalInput:
+    return NormalInput(None, None, 0.0, 0.0, status, " ".join(reason.split()), variant, 0.0)
+
+
+def load_truth(image_path: str | os.PathLike[str]) -> NormalInput:
+    """Ground-truth normal map and BSDF of a synthetic image; ``missing`` when the files are not there."""
+
+    paths = truth_paths(Path(image_path))
+    absent = [str(paths[k]) for k in ("normal", "height", "json") if not paths[k].is_file()]
+    if absent:
+        return unusable_input("missing", f"no ground truth for {image_path}: {', '.join(absent)} not found", "truth")
+    try:
+        truth = json.loads(paths["json"].read_text(encoding="utf-8"))
+        normals = decode_normal(read_png(paths["normal"]))
+        if normals.ndim != 3 or normals.shape[-1] < 3:
+            raise ValueError(f"{paths['normal']}: expected an RGB normal map, got shape {normals.shape}")
+        height = read_png(paths["height"]).astype(np.float64)
+        height = height[..., 0] if height.ndim == 3 else height
+        return NormalInput(normals[..., :3], height, finite_number(truth["roughness"], "roughness"), finite_number(truth["specular"], "specular"),
+                           STATUS_OK, "", "truth", 1.0)
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        return unusable_input("failed", f"ground truth of {image_path} unreadable: {type(err).__name__}: {err}", "truth")
+
+
+def _read_record(path: Path, variant: str) -> dict[str, Any] | NormalInput:
+    """A stage's JSON record, or a ``failed`` input saying why it cannot be read."""
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        return unusable_input("failed", f"{path} unreadable: {type(err).__name__}: {err}", variant)
+
+
+def _read_three_channels(path: Path) -> np.ndarray:
+    """The first three channels of an EXR written by this package, as float32 (H, W, 3)."""
+    data = read_exr(path)
+    if data.ndim != 3 or data.shape[-1] < 3:
+        raise ValueError(f"{path.name}: expected 3 channels, got shape {data.shape}")
+    return data[..., :3]
+
+
+def lit_normals(normals: np.ndarray, light_position: Any) -> np.ndarray:
+    """Lambert shading ``max(n . l, 0)`` of (H, W, 3) tangent-space normals under a distant light toward ``light_position``.
+
+    Raises
+    ------
+    ValueError
+        When the light position is not three finite numbers away from the origin.
+    """
+    position = np.asarray(light_position, dtype=np.float64)
+    if position.shape != (3,) or not np.all(np.isfinite(position)) or np.linalg.norm(position) <= 0:
+        raise ValueError(f"light position must be three finite numbers, not all zero; got {light_position!r}")
+    return np.clip(np.asarray(normals, dtype=np.float64) @ (position / np.linalg.norm(position)), 0.0, None)
+
+
+def load_fitted(normals_dir: str | os.PathLike[str], field: str) -> NormalInput:
+    """The fit_normals output of one image: ``state.json``, ``normal.exr``, ``height.exr`` and any ``shade.exr``.
+
+    ``field`` (:data:`FITTED_FIELDS`) is what the structure descriptor will read:
+    ``relief``, the height map, or ``shading``, the normal map lit by the
+    fitted light (:func:`lit_normals`; the light of ``state.json``).
+    """
+    if field not in FITTED_FIELDS:
+        raise ValueError(f"fitted field must be one of {', '.join(FITTED_FIELDS)}, got {field!r}")
+    folder = Path(normals_dir)
+    state = _read_record(folder / STATE_FILE, "")
+    if isinstance(state, NormalInput):
+        return state
+    variant = str((state.get("runtime") or {}).get("mitsuba_variant", ""))
+    status = state.get("status")
+    if status != "fitted":
+        status = status if status in ("skipped", "failed") else "failed"
+        return unusable_input(status, str(state.get("reason") or f"fit status {state.get('status')!r}"), variant)
+    try:
+        material = state["material"]
+        normals = _read_three_channels(folder / NORMAL_FILE)
+        height = read_exr(folder / HEIGHT_FILE)[..., 0].astype(np.float64)
+        shade = read_exr(folder / SHADE_FILE)[..., 0].astype(np.float64) if (folder / SHADE_FILE).is_file() else None
+        if not all(np.all(np.isfinite(a)) for a in (normals, height, 0.0 if shade is None else shade)):
+            raise ValueError(f"normal.exr, height.exr or {SHADE_FILE} holds non-finite values")
+        described = height if field == "relief" else lit_normals(normals, state["scene"]["light"]["position"])
+        return NormalInput(normals, described, finite_number(material["roughness"], "roughness"), finite_number(material["specular"], "specular"),
+                           STATUS_OK, "", variant, finite_number(state.get("texels_per_pixel", 1.0), "texels_per_pixel"), shade)
+    except (OSError, RuntimeError, ValueError, KeyError, TypeError) as err:
+        return unusable_input("failed", f"{folder}: {type(err).__name__}: {err}", variant)
+
+
+def load_photo(prepared_dir: str | os.PathLike[str]) -> NormalInput:
+    """The prepared photo's linear luminance (Rec. 709 weights), for the ``photo`` source; no BSDF."""
+    folder = Path(prepared_dir)
+    status = _read_record(folder / STATUS_FILE, "photo")
+    if isinstance(status, NormalInput):
+        return status
+    if status.get("status") != "accepted":
+        return unusable_input("skipped", f"photo rejected: {status.get('reason') or status.get('status')}", "photo")
+    try:
+        luminance = photo_luminance(_read_three_channels(folder / IMAGE_FILE).astype(np.float64))
+        if not np.all(np.isfinite(luminance)):
+            raise ValueError("image.exr holds non-finite values")
+        return NormalInput(luminance, luminance, 0.0, 0.0, STATUS_OK, "", "photo", 1.0)
+    except (OSError, RuntimeError, ValueError) as err:
+        return unusable_input("failed", f"{folder}: {type(err).__name__}: {err}", "photo")
+
+
+def load_normal_input(source: str, image_path: str | os.PathLike[str], source_dir: str | os.PathLike[str] | None,
+                      fitted_field: str | None) -> NormalInput:
+    """:func:`load_truth`, :func:`load_fitted` (``source_dir``: fit_normals folder; ``fitted_field``: what its
+    descriptor reads) or :func:`load_photo` (``source_dir``: prepared folder), by ``source``."""
+    if source == "truth":
+        return load_truth(image_path)
+    if source in ("fitted", "photo"):
+        if source_dir is None:
+            raise ValueError(f"the {source} source needs its input folder")
+        return load_fitted(source_dir, fitted_field) if source == "fitted" else load_photo(source_dir)
+    raise ValueError(f"normal source must be one of {', '.join(NORMAL_SOURCES)}, got {source!r}")
