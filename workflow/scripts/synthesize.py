@@ -1,22 +1,16 @@
-"""Snakemake job: render one synthetic image with ground truth (logic in clothscope.synth)."""
+"""Snakemake job: render one synthetic image with ground truth (clothscope.synth.generate)."""
 from clothscope.core.joblog import job_log
-from clothscope.synth.generate import DYES, save, synthesize
+from clothscope.synth.generate import synthesize_job
 
 with job_log(snakemake.log[0], "synthesize") as log:
-    settings = snakemake.params.settings
-    fabric, image_id = snakemake.wildcards.fabric, snakemake.wildcards.image
-    dye = image_id.removeprefix(f"{fabric}_")
-    if dye not in DYES:
-        raise ValueError(f"image id {image_id!r} must be <class>_<dye> with a dye in {', '.join(DYES)}")
-    result = synthesize(
-        fabric,
-        list(DYES).index(dye),
+    result = synthesize_job(
+        snakemake.wildcards.image,
+        snakemake.wildcards.fabric,
         snakemake.params.seed,
-        settings["resolution"],
-        settings["spp"],
-        settings["mesh_resolution"],
+        snakemake.params.settings,
         snakemake.params.variant,
         snakemake.threads,
+        snakemake.output.image,
     )
-    save(result, snakemake.output.image)
-    log.info("%s rendered in %.2f s with %s", image_id, result.truth["provenance"]["render_seconds"], result.truth["effects"])
+    log.info("%s rendered in %.2f s with %s", snakemake.wildcards.image, result.truth["provenance"]["render_seconds"],
+             result.truth["effects"])

@@ -417,3 +417,21 @@ def save_field(photo: FieldPhoto, image_path: str | Path) -> dict[str, Path]:
     write_with(paths["fold"], lambda tmp: np.save(str(tmp), photo.fold.astype(np.float16)))
     write_json(paths["json"], photo.truth)
     return paths
+
+
+def synthesize_field_job(image_id: str, fabric: str, settings: dict[str, Any], variant: str, threads: int,
+                         target: str | Path) -> FieldPhoto:
+    """The ``synthesize_field`` rule: render ``<fabric>_<number>`` with the ``synthesize.field`` config and save it.
+
+    Raises
+    ------
+    ValueError
+        When the image id does not end in a number.
+    """
+    number = image_id.removeprefix(f"{fabric}_")
+    if not number.isdigit():
+        raise ValueError(f"image id {image_id!r} must be <class>_<two-digit number>")
+    photo = synthesize_field(fabric, int(number), settings["seed"], settings["spp"], settings["max_mesh_resolution"],
+                             variant, threads)
+    save_field(photo, target)
+    return photo

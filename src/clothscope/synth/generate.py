@@ -318,3 +318,21 @@ def save(synthetic: Synthetic, image_path: str | Path) -> dict[str, Path]:
 def dataset_index(colors_per_class: int) -> list[tuple[str, int, str]]:
     """(fabric class, dye index, image id) of every image of the default set."""
     return [(fabric, i, f"{fabric}_{list(DYES)[i]}") for fabric in FABRICS for i in range(colors_per_class)]
+
+
+def synthesize_job(image_id: str, fabric: str, seed: int, settings: dict[str, Any], variant: str, threads: int,
+                   target: str | Path) -> Synthetic:
+    """The ``synthesize`` rule: render ``<fabric>_<dye>`` with the ``synthesize`` config and save it with its ground truth.
+
+    Raises
+    ------
+    ValueError
+        When the image id does not name one of :data:`DYES`.
+    """
+    dye = image_id.removeprefix(f"{fabric}_")
+    if dye not in DYES:
+        raise ValueError(f"image id {image_id!r} must be <class>_<dye> with a dye in {', '.join(DYES)}")
+    result = synthesize(fabric, list(DYES).index(dye), seed, settings["resolution"], settings["spp"],
+                        settings["mesh_resolution"], variant, threads)
+    save(result, target)
+    return result

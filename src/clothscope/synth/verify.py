@@ -71,3 +71,11 @@ def compare_datasets(regenerated_images: Iterable[str | os.PathLike[str]], commi
 def write_report(rows: list[dict[str, Any]], target: str | os.PathLike[str]) -> None:
     """Write the comparison as TSV."""
     write_text(target, pd.DataFrame(rows).to_csv(sep="\t", index=False, lineterminator="\n"))
+
+
+def check_job(regenerated_images: Iterable[str | os.PathLike[str]], committed_root: str | os.PathLike[str],
+              target: str | os.PathLike[str]) -> list[dict[str, Any]]:
+    """The ``check_synthetic`` rule: compare the regenerated set with the committed one and write the TSV report."""
+    rows = compare_datasets(regenerated_images, committed_root)
+    write_report(rows, target)
+    return rows
