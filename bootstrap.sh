@@ -61,4 +61,4 @@ if [ "$SLURM" = 1 ]; then
     echo "$slurm_want" > "$slurm_stamp"
   fi
 fi
-.venv/bin/python -c 'from clothscope.runtime import mitsuba_for; mi = mitsuba_for("auto"); print("bootstrap: ready, Mitsuba", mi.__version__, "variant", mi.variant())'
+.venv/bin/python -c 'from clothscope.core.runtime import mitsuba_for; mi = mitsuba_for("auto"); print("bootstrap: ready, Mitsuba", mi.__version__, "variant", mi.variant())'
