@@ -189,7 +189,6 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
 
 def _write_unscored(reports_dir: str | os.PathLike[str], source: str, problems: list[str], queries: pd.DataFrame) -> None:
     """The report files of :func:`clothscope.classify.reports.write_reports` when LOOCV could not run, saying why."""
-
     out = Path(reports_dir)
     reason = "; ".join(problems)
     write_json(out / "accuracy.json", {"title": f"QDA, {source} normal maps", "status": "not run", "reason": reason,

@@ -5,6 +5,7 @@ Every default and range of the config lives in one place, the JSON Schema
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import functools
 import importlib
@@ -35,7 +36,7 @@ def _schema() -> dict[str, Any]:
 
 def config_schema() -> dict[str, Any]:
     """The config schema, read from :data:`SCHEMA_PATH` (a fresh copy)."""
-    return load_schema(SCHEMA_PATH)
+    return copy.deepcopy(_schema())
 
 
 def schema_defaults() -> dict[str, Any]:

@@ -102,7 +102,6 @@ def _decode_png16(path: Path) -> np.ndarray:
 
 
 def _mitsuba_scalar():
-
     ensure_libllvm()
     import mitsuba as mi
 

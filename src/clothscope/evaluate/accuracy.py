@@ -73,7 +73,6 @@ def truth_view_normals(truth: dict[str, Any], resolution: int) -> np.ndarray:
 
 def fit_view_normals(grid: np.ndarray, fov_deg: float, distance: float, resolution: int) -> np.ndarray:
     """(R, R, 3) normals of a fitted (n, n, 3) grid (rows along +y) in the fit camera's frame."""
-
     origin = np.array([0.0, 0.0, distance])
     basis = camera_basis(origin, np.zeros(3), np.array([0.0, 1.0, 0.0]))
     rays = pixel_rays(basis, fov_deg, resolution)
@@ -152,14 +151,12 @@ def period_error(fitted_period_px: float | None, truth: dict[str, Any], scale: f
 
 def fitted_period_px(normals: np.ndarray, texels_per_pixel: float) -> float | None:
     """Thread period (image px) from the spectrum of a fitted normal map (:func:`clothscope.features.period.thread_period`)."""
-
     period = thread_period(normals, settings("features"))  # the schema's default spectrum settings
     return None if period is None else float(period / texels_per_pixel)
 
 
 def benchmark_seconds(path: str | os.PathLike[str]) -> tuple[float, float]:
     """(wall seconds, peak RSS MB) from a Snakemake ``benchmark:`` file; NaN-free (0 when absent)."""
-
     if not Path(path).exists():
         return 0.0, 0.0
     row = pd.read_csv(path, sep="\t").iloc[-1]

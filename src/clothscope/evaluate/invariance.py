@@ -223,11 +223,6 @@ class ChangeReport:
         return float((self.predicted_transformed == self.labels).mean()) if self.labels.size else 0.0
 
 
-def _default_factory() -> Any:
-
-    return make_qda()
-
-
 def prediction_change_rate(
     original: np.ndarray,
     transformed: np.ndarray,
@@ -261,7 +256,7 @@ def prediction_change_rate(
         raise ValueError(f"feature matrices must be (n, d) of the same shape with n labels, got {X.shape}, {Xt.shape}, {len(y)}")
     if not (np.isfinite(X).all() and np.isfinite(Xt).all()):
         raise ValueError("feature matrices contain NaN or infinite values")
-    factory = model_factory or _default_factory
+    factory = model_factory or make_qda
     n = X.shape[0]
     pred = np.empty(n, dtype=object)
     pred_t = np.empty(n, dtype=object)

@@ -65,7 +65,6 @@ def plot_analysis(result: SpectrumResult, target: str | os.PathLike[str], title:
 
 def plot_placeholder(target: str | os.PathLike[str], title: str, reason: str) -> None:
     """A PNG that says why an image has no spectrum plot, atomically."""
-
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 

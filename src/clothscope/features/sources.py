@@ -30,6 +30,7 @@ STATUS_OK = "ok"
 
 
 def finite_number(value: Any, name: str) -> float:
+    """``value`` as a float; a ValueError naming ``name`` when it is NaN or infinite."""
     number = float(value)
     if not math.isfinite(number):
         raise ValueError(f"{name} is not finite: {value!r}")
@@ -61,7 +62,6 @@ def unusable_input(status: str, reason: str, variant: str) -> NormalInput:
 
 def load_truth(image_path: str | os.PathLike[str]) -> NormalInput:
     """Ground-truth normal map and BSDF of a synthetic image; ``missing`` when the files are not there."""
-
     paths = truth_paths(Path(image_path))
     absent = [str(paths[k]) for k in ("normal", "height", "json") if not paths[k].is_file()]
     if absent:
