@@ -5,8 +5,6 @@ import sys
 from clothscope.core.imageio import file_problem
 from clothscope.core.samples import load_sample_sheet
 from clothscope.core.schema import InputError, apply_preset, load_schema, validate
-from clothscope.synth.field import FIELD_FABRICS, field_index
-from clothscope.synth.generate import dataset_index
 
 SCHEMAS = os.path.join(workflow.basedir, "workflow", "schemas")
 PRESETS = os.path.join(workflow.basedir, "config", "presets")
@@ -34,16 +32,10 @@ RESULTS = config["results"]
 IMAGE_IDS = list(SAMPLES["image_id"])
 #: rules that can use a GPU ask for one only when the CUDA variant is forced
 GPUS = 1 if config["variant"] == "cuda_ad_rgb" else 0
-SYNTHETIC = dataset_index(config["synthesize"]["colors_per_class"])
-FIELD = field_index(
-    config["synthesize"]["field"]["images_per_class"],
-    config["synthesize"]["field"]["classes"],
-)
 
 
 wildcard_constraints:
     image=r"[A-Za-z0-9][A-Za-z0-9_.-]*",
-    fabric="|".join(FIELD_FABRICS),
 
 
 def image_path(wildcards):
@@ -66,6 +58,7 @@ def rejection_report():
     return os.path.join(RESULTS, "reports", "rejected.tsv")
 
 
+# Synthetic-set outputs (SYNTHETIC and FIELD are built in workflow/rules/synthesize.smk)
 def synthetic_outputs(kind, dataset="synthetic"):
     """Rendered synthetic files of one kind ("image" or "truth") for every default image of a dataset."""
     suffix = {"image": ".png", "truth": ".truth.json"}[kind]

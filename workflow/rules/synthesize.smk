@@ -4,6 +4,20 @@
 # capture-realistic field set (target: field_set, results/field/). Not part of `all`.
 
 
+from clothscope.synth.field import FIELD_FABRICS, field_index
+from clothscope.synth.generate import dataset_index
+
+SYNTHETIC = dataset_index(config["synthesize"]["colors_per_class"])
+FIELD = field_index(
+    config["synthesize"]["field"]["images_per_class"],
+    config["synthesize"]["field"]["classes"],
+)
+
+
+wildcard_constraints:
+    fabric="|".join(FIELD_FABRICS),
+
+
 rule synthesize:
     output:
         image=os.path.join(RESULTS, "{dataset}", "{fabric}", "{image}.png"),
