@@ -12,7 +12,7 @@ import pytest
 from PIL import Image
 
 ROOT = Path(__file__).resolve().parents[1]
-SCHEMAS = ROOT / "workflow" / "schemas"
+SCHEMAS = ROOT / "src" / "clothscope" / "core" / "schemas"
 SYNTHETIC = ROOT / "data" / "synthetic"
 
 

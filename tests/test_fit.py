@@ -99,7 +99,8 @@ def test_normals_without_joint_pass_keep_the_material_stage_bsdf(tmp_path):
 def test_shade_texture_takes_the_holes_of_an_open_weave_and_stays_in_range(tmp_path):
     """albedo_weight > 0: shade.exr is written, finite, in (0, 1 / s0], darker over gauze holes than over yarn."""
     from clothscope.features.structure import StructureSettings, shade_features
-    from clothscope.fit.normals import SHADE_FILE, SHADE_LATENT0
+    from clothscope.fit.normals import SHADE_LATENT0
+    from clothscope.fit.outputs import SHADE_FILE
 
     settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, albedo_weight=0.05,
                               colour_model="one_colour")
@@ -215,7 +216,7 @@ def test_loss_image_and_gradient_pass_take_their_own_sample_counts(mi):
     """``render``: the image has ``spp`` samples per pixel, the gradient pass ``spp_grad`` (same expectation)."""
     import drjit as dr
 
-    from clothscope.fit.stage import render
+    from clothscope.fit.loop import render
 
     camera = FitCamera()
     fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8, 0.06), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))

@@ -1,6 +1,10 @@
 """Variant choice and libLLVM discovery."""
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import pytest
 
 from clothscope.core.runtime import find_libllvm, resolve_variant, runtime_metadata
@@ -49,3 +53,29 @@ def test_exr_io_after_a_one_thread_job_does_not_hang(tmp_path):
     """)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr[-2000:]
+
+
+SPY = """
+import os, sys
+os.environ.pop("DRJIT_LIBLLVM_PATH", None)
+seen = []
+
+class Spy:  # records DRJIT_LIBLLVM_PATH at the moment drjit is first imported
+    def find_spec(self, name, path=None, target=None):
+        if name == "drjit" and not seen:
+            seen.append(os.environ.get("DRJIT_LIBLLVM_PATH", ""))
+
+sys.meta_path.insert(0, Spy())
+import clothscope.fit.jobs, clothscope.features.table, clothscope.core.imageio
+print(seen[0] if seen else "never imported")
+"""
+
+
+def test_libllvm_is_chosen_before_drjit_is_first_imported():
+    """drjit reads DRJIT_LIBLLVM_PATH on import, so importing clothscope sets it first."""
+    expected = find_libllvm()
+    if expected is None:
+        pytest.skip("no libLLVM >= 16 on this machine")
+    env = {k: v for k, v in os.environ.items() if k != "DRJIT_LIBLLVM_PATH"}
+    out = subprocess.run([sys.executable, "-c", SPY], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.strip() == expected

@@ -1,4 +1,4 @@
-"""Every config default lives in one place, the JSON Schema ``workflow/schemas/config.schema.yaml``.
+"""Every config default lives in one place, the JSON Schema ``src/clothscope/core/schemas/config.schema.yaml``.
 
 Settings objects are built from the validated config (:func:`clothscope.core.config.settings`), so no
 settings dataclass restates a default or a range, no keyword default, ``.get`` fallback or argparse default
@@ -37,7 +37,7 @@ ALLOWED = {
     ("src/clothscope/fit/effects.py", "plan_stage", "full_effects"): "off is the evidence-driven plan; fit jobs pass fit.full_effects",
     **{("src/clothscope/evaluate/accuracy.py", function, "resolution"): "name collision: the scoring grid's side, not a config key"
        for function in ("fold_normal_error", "tilt_error_deg", "seen_scale")},
-    ("src/clothscope/fit/stage.py", "scene_xml", "spp"): "name collision: the preview scene's samples, not synthesize.spp",
+    ("src/clothscope/fit/outputs.py", "scene_xml", "spp"): "name collision: the preview scene's samples, not synthesize.spp",
 }
 
 

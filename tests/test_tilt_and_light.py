@@ -10,9 +10,9 @@ from clothscope.core.mesh import grid_faces
 from clothscope.core.runtime import mitsuba_for
 from clothscope.fit.geometry import grid_from, pinned_plane, tilted_grid
 from clothscope.fit.light import apply_light, cloth_normal, light_from_latent, tilted
-from clothscope.fit.loop import LoopSettings, optimise
+from clothscope.fit.loop import LoopSettings, optimise, render
 from clothscope.fit.model import FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
-from clothscope.fit.stage import Target, image_loss, render
+from clothscope.fit.target import Target, image_loss
 from clothscope.fit.tilt import TiltEstimate, estimate_tilt
 
 CAMERA = FitCamera(25.0)

@@ -34,7 +34,7 @@ from clothscope.core.imageio import decode_image
 from clothscope.core.truth import truth_paths
 from clothscope.evaluate.accuracy import seen_scale
 from clothscope.features.structure import StructureSettings
-from clothscope.prepare.image import native_period
+from clothscope.prepare.image import STATUS_FILE, native_period
 
 TOLERANCE = 0.05
 #: a period read this many times too long is a colour or weave repeat: the crop then leaves the threads too fine to fit
@@ -54,7 +54,7 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
         draw = truth["draw"]
         seen = seen_scale(truth)  # folds bring the cloth nearer or farther than the nominal plane
         periods = [p * seen for p in (truth["thread_period_px"], truth["course_period_px"]) if p]
-        status = run / "prepared" / image_id / "status.json"
+        status = run / "prepared" / image_id / STATUS_FILE
         measured = json.loads(status.read_text())["scale"].get("native_period_px") if status.is_file() else None
         error = period_error(measured, periods) if periods else None
         by_field = {}

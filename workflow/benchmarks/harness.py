@@ -26,10 +26,11 @@ def validated_config() -> dict:
     """``config/config.yaml`` with its preset merged and the schema's defaults filled in, as the workflow sees it."""
     import yaml
 
+    from clothscope.core.config import SCHEMA_PATH
     from clothscope.core.schema import apply_preset, load_schema, validate
 
     config = apply_preset(yaml.safe_load((ROOT / "config" / "config.yaml").read_text()), ROOT / "config" / "presets")
-    return validate(config, load_schema(ROOT / "workflow" / "schemas" / "config.schema.yaml"), "config")
+    return validate(config, load_schema(SCHEMA_PATH), "config")
 
 
 def write_sheet(images: list[str] | None, target: Path) -> Path:

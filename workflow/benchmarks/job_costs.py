@@ -36,6 +36,8 @@ import numpy as np
 import pandas as pd
 from harness import ROOT, STAGES, publish, validated_config
 
+from clothscope.fit.outputs import LOSS_FILE
+
 #: Python snippets of the start-up steps, each run in a fresh interpreter
 START_UP = {
     "interpreter": "pass",
@@ -84,7 +86,7 @@ def job_rows(run: Path) -> pd.DataFrame:
     rows = []
     for stage in STAGES:
         for bench in sorted((run / "benchmarks" / f"fit_{stage}").glob("*.tsv")):
-            curve_file = run / "fit" / bench.stem / stage / "loss.csv"
+            curve_file = run / "fit" / bench.stem / stage / LOSS_FILE
             if not curve_file.exists():
                 continue
             wall = float(pd.read_csv(bench, sep="\t").iloc[-1]["s"])
@@ -148,7 +150,7 @@ def kernel_split(image: str, results: Path) -> pd.DataFrame:
             history = dr.kernel_history()
             kernels = sum(entry.get("execution_time", 0.0) for entry in history) / 1000.0
             compiling = sum(entry.get("codegen_time", 0.0) + entry.get("backend_time", 0.0) for entry in history) / 1000.0
-            iterations = len(pd.read_csv(Path(out[stage]) / "loss.csv"))
+            iterations = len(pd.read_csv(Path(out[stage]) / LOSS_FILE))
             rows.append({"stage": stage, "wall s": wall, "kernels s": kernels, "other s": wall - kernels,
                          "of which compiling s": compiling, "iterations": iterations,
                          "other over iterations ms": 1000 * (wall - kernels) / iterations})

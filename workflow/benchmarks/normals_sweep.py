@@ -57,7 +57,8 @@ def fit_one(job: tuple[str, str, dict]) -> dict:
     from clothscope.fit.colour import choose_colour_model
     from clothscope.fit.effects import geometry_evidence, plan_stage
     from clothscope.fit.normals import NormalSettings, fit_normals
-    from clothscope.fit.stage import at_resolution, load_prepared, load_state
+    from clothscope.fit.outputs import load_state
+    from clothscope.fit.target import at_resolution, load_prepared
 
     image, fabric_class, settings = job
     mi = mitsuba_for("llvm_ad_rgb", 1)

@@ -22,17 +22,16 @@ import numpy as np
 import pandas as pd
 from harness import ROOT, SUBSET, publish
 
-from clothscope.core.config import schema_defaults
+from clothscope.core.config import SCHEMA_PATH, schema_defaults
 from clothscope.core.imageio import read_exr
 from clothscope.core.runtime import mitsuba_for
 from clothscope.core.schema import load_schema
 from clothscope.fit.integrator import NAME as UNSHADOWED
 from clothscope.fit.model import build_scene
-from clothscope.fit.normals import ALBEDO_FILE
-from clothscope.fit.stage import load_state
+from clothscope.fit.outputs import ALBEDO_FILE, NORMAL_FILE, STATE_FILE, load_state
 
 #: the samplers a fit stage may use (``fit.normals.sampler`` in the config schema)
-SAMPLERS = tuple(load_schema(ROOT / "workflow" / "schemas" / "config.schema.yaml")
+SAMPLERS = tuple(load_schema(SCHEMA_PATH)
                  ["properties"]["fit"]["properties"]["normals"]["properties"]["sampler"]["enum"])
 SAMPLE_COUNTS = (2, 4, 8, 16)
 RESOLUTION = 256
@@ -43,7 +42,7 @@ def fitted_scene(mi, image: str, sampler: str):
     """The normal-map stage's fitted scene of ``image`` with ``sampler``."""
     folder = ROOT / "results" / "fit" / image / "normals"
     fit, _ = load_state(folder)
-    normals = read_exr(folder / "normal.exr")[..., :3]
+    normals = read_exr(folder / NORMAL_FILE)[..., :3]
     albedo = read_exr(folder / ALBEDO_FILE)[..., :3] if (folder / ALBEDO_FILE).is_file() else None
     return build_scene(mi, fit, RESOLUTION, {"type": UNSHADOWED}, sampler, normal_texture=normals * 0.5 + 0.5,
                        albedo_texture=albedo)
@@ -81,7 +80,7 @@ def main() -> int:
     parser.add_argument("--images", default=SUBSET, help="comma-separated image ids with a finished fit")
     args = parser.parse_args()
     images = args.images.split(",")
-    missing = [i for i in images if not (ROOT / "results" / "fit" / i / "normals" / "state.json").is_file()]
+    missing = [i for i in images if not (ROOT / "results" / "fit" / i / "normals" / STATE_FILE).is_file()]
     if missing:
         raise SystemExit(f"sampler_noise: error: no finished fit for {', '.join(missing)} (run snakemake first)")
     mi = mitsuba_for("llvm_ad_rgb", 1)

@@ -3,10 +3,10 @@ import os
 import sys
 
 from clothscope.core.imageio import file_problem
-from clothscope.core.samples import load_sample_sheet
+from clothscope.core.config import SCHEMA_PATH
+from clothscope.core.samples import SAMPLES_SCHEMA_PATH, load_sample_sheet
 from clothscope.core.schema import InputError, apply_preset, load_schema, validate
 
-SCHEMAS = os.path.join(workflow.basedir, "workflow", "schemas")
 PRESETS = os.path.join(workflow.basedir, "config", "presets")
 
 
@@ -17,14 +17,8 @@ def fail(message):
 
 try:
     config.update(apply_preset(config, PRESETS))
-    config.update(
-        validate(
-            config, load_schema(os.path.join(SCHEMAS, "config.schema.yaml")), "config"
-        )
-    )
-    SAMPLES = load_sample_sheet(
-        config["samples"], os.path.join(SCHEMAS, "samples.schema.yaml")
-    )
+    config.update(validate(config, load_schema(SCHEMA_PATH), "config"))
+    SAMPLES = load_sample_sheet(config["samples"], SAMPLES_SCHEMA_PATH)
 except InputError as err:
     fail(err)
 

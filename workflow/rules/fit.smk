@@ -104,7 +104,6 @@ rule fit_accuracy:
         mem_mb=2000,
         runtime=10,
     params:
-        images=images_with_truth(),
         truth={i: str(SAMPLES.loc[i, "path"]) for i in images_with_truth()},
         benchmarks=os.path.join(RESULTS, "benchmarks"),
     script:

@@ -34,7 +34,8 @@ import numpy as np
 import pandas as pd
 
 from clothscope.classify.loocv import loocv
-from clothscope.core.atomic import write_text, write_with
+from clothscope.core.atomic import write_text
+from clothscope.core.figures import new_figure, save_png
 from clothscope.features.paper import SpectrumResult, SpectrumSettings, analyse_normal_map, count_peaks, peak_features
 from clothscope.features.sources import STATUS_OK, NormalInput, load_normal_input
 from clothscope.features.table import paper_feature_columns, read_table, spectrum_settings, specular_norm
@@ -237,13 +238,9 @@ def sweep(maps: list[LabelledMap], base: SpectrumSettings, grid: dict[str, list[
 
 def sweep_figure(table: pd.DataFrame, target: str | os.PathLike[str], title: str) -> None:
     """Heatmaps of LOOCV accuracy: one panel per (DC radius, peak size), n_peaks across, alpha down."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     dcs, peaks = sorted(table["dc_radius"].unique()), sorted(table["peak_size"].unique())
     ns, alphas = sorted(table["n_peaks"].unique()), sorted(table["alpha"].unique())
-    fig = Figure(figsize=(3.2 * len(peaks) + 1.5, 3.3 * len(dcs) + 1.0), layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = new_figure(3.2 * len(peaks) + 1.5, 3.3 * len(dcs) + 1.0, layout="constrained")
     axes = np.atleast_2d(fig.subplots(len(dcs), len(peaks), squeeze=False))
     image = None
     for i, dc in enumerate(dcs):
@@ -266,7 +263,7 @@ def sweep_figure(table: pd.DataFrame, target: str | os.PathLike[str], title: str
     if image is not None:
         fig.colorbar(image, ax=axes.ravel().tolist(), label="LOOCV accuracy")
     fig.suptitle(title)
-    write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=100))
+    save_png(fig, target, dpi=100)
 
 
 def write_sweep(table: pd.DataFrame, csv_path: str | os.PathLike[str], png_path: str | os.PathLike[str], title: str) -> None:

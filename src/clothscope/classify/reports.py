@@ -10,6 +10,7 @@ import pandas as pd
 from clothscope.classify.loocv import LoocvResult
 from clothscope.classify.rows import POSTERIOR_PREFIX, posterior_column
 from clothscope.core.atomic import write_json, write_text, write_with
+from clothscope.core.figures import new_figure, save_png
 
 
 def _require_finite(frame: pd.DataFrame, name: str) -> None:
@@ -51,14 +52,10 @@ def prediction_table(result: LoocvResult, predictions_for_queries: pd.DataFrame 
 
 
 def _confusion_figure(confusion: pd.DataFrame, title: str, target: Path) -> None:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     counts = confusion.to_numpy()
     k = len(confusion)
     side = max(4.0, 0.75 * k + 2.5)
-    fig = Figure(figsize=(side + 1.0, side))
-    FigureCanvasAgg(fig)
+    fig = new_figure(side + 1.0, side)
     ax = fig.add_subplot(1, 1, 1)
     image = ax.imshow(counts, cmap="Blues", vmin=0, vmax=max(1, int(counts.max())))
     fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04, label="images")
@@ -72,7 +69,7 @@ def _confusion_figure(confusion: pd.DataFrame, title: str, target: Path) -> None
         for j in range(k):
             ax.text(j, i, str(int(counts[i, j])), ha="center", va="center", color="white" if counts[i, j] > threshold else "black")
     fig.tight_layout()
-    fig.savefig(target, format="png", dpi=120)
+    save_png(fig, target, dpi=120)
 
 
 def write_reports(

@@ -1,7 +1,8 @@
 """The workflow config's defaults, and settings objects built from a validated config.
 
 Every default and range of the config lives in one place, the JSON Schema
-``workflow/schemas/config.schema.yaml``; the settings dataclasses restate none of them.
+``clothscope/core/schemas/config.schema.yaml`` (package data, so an installed
+package has it too); the settings dataclasses restate none of them.
 """
 from __future__ import annotations
 
@@ -10,13 +11,12 @@ import dataclasses
 import functools
 import importlib
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
-from clothscope.core.schema import deep_merge, load_schema, validate
+from clothscope.core.schema import SCHEMA_DIR, deep_merge, load_schema, validate
 
-#: The config schema (the package is installed editable from ``src/``, so the repository is three folders up).
-SCHEMA_PATH = Path(__file__).resolve().parents[3] / "workflow" / "schemas" / "config.schema.yaml"
+#: The config schema.
+SCHEMA_PATH = SCHEMA_DIR / "config.schema.yaml"
 
 #: Config section (dotted) -> its settings class, ``module:Class``, imported when first asked for.
 SECTIONS = {

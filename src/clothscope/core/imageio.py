@@ -15,11 +15,11 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import drjit as dr
 import numpy as np
 from PIL import Image, ImageOps
 
 from clothscope.core.atomic import write_with
-from clothscope.core.runtime import ensure_libllvm
 
 EXR_SUFFIXES = {".exr"}
 #: Pillow tile raw modes of 16-bit colour PNGs, which Pillow itself truncates to 8 bit.
@@ -102,8 +102,7 @@ def _decode_png16(path: Path) -> np.ndarray:
 
 
 def _mitsuba_scalar():
-    ensure_libllvm()
-    import mitsuba as mi
+    import mitsuba as mi  # about 1 s to import: loaded on the first EXR read or write
 
     if mi.variant() is None:
         mi.set_variant("scalar_rgb")
@@ -118,8 +117,6 @@ def _thread_pool_of_two() -> Iterator[None]:
     a job has set 1 thread (``fit.threads: 1``), the next EXR read or write in
     that process hangs forever.
     """
-    import drjit as dr
-
     threads = dr.thread_count()
     if threads < 2:
         dr.set_thread_count(2)

@@ -42,7 +42,7 @@ def ensure_libllvm() -> str | None:
 
 def cuda_available() -> bool:
     """True when Dr.Jit can initialise its CUDA backend on this machine."""
-    import drjit as dr
+    import drjit as dr  # here, not at the top: this module runs before drjit may be imported (clothscope/__init__.py)
 
     try:
         return bool(dr.has_backend(dr.JitBackend.CUDA))
@@ -78,8 +78,8 @@ def resolve_variant(requested: str = "auto") -> str:
 def mitsuba_for(variant: str = "auto", threads: int | None = None) -> ModuleType:
     """Import Mitsuba with the resolved variant set and the Dr.Jit thread count applied."""
     resolved = resolve_variant(variant)
-    import drjit as dr
-    import mitsuba as mi
+    import drjit as dr  # see cuda_available
+    import mitsuba as mi  # about 1 s to import: only jobs that render pay it
 
     mi.set_variant(resolved)
     if threads:
@@ -89,7 +89,7 @@ def mitsuba_for(variant: str = "auto", threads: int | None = None) -> ModuleType
 
 def runtime_metadata(mi: ModuleType) -> dict[str, str]:
     """Versions and variant to record beside every rendered output."""
-    import drjit as dr
+    import drjit as dr  # see cuda_available
 
     return {
         "mitsuba_variant": str(mi.variant()),

@@ -14,8 +14,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from clothscope.core.schema import InputError, load_schema, validate
+from clothscope.core.schema import SCHEMA_DIR, InputError, load_schema, validate
 
+#: The sample sheet's schema.
+SAMPLES_SCHEMA_PATH = SCHEMA_DIR / "samples.schema.yaml"
 COLUMNS = ["image_id", "path", "fabric_class", "dye_color", "source"]
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr"}
 #: Files beside synthetic images that hold ground truth, never samples.
@@ -46,7 +48,7 @@ def load_sample_sheet(path: str | os.PathLike[str], schema_path: str | os.PathLi
     path
         The TSV file.
     schema_path
-        ``workflow/schemas/samples.schema.yaml``: column types and defaults.
+        :data:`SAMPLES_SCHEMA_PATH`: column types and defaults.
 
     Returns
     -------

@@ -19,6 +19,10 @@ class InputError(ValueError):
     """Invalid user input (config or sample sheet); the message is one line."""
 
 
+#: The package's JSON Schemas: ``config.schema.yaml`` (the workflow config) and ``samples.schema.yaml`` (the sample sheet).
+SCHEMA_DIR = Path(__file__).parent / "schemas"
+
+
 def load_schema(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Read a YAML or JSON schema file."""
     return yaml.safe_load(Path(path).read_text(encoding="utf-8"))

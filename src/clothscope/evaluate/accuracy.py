@@ -21,9 +21,11 @@ from clothscope.core.atomic import write_text
 from clothscope.core.config import settings
 from clothscope.core.imageio import read_exr
 from clothscope.core.mesh import grid_normals
+from clothscope.core.truth import truth_paths
 from clothscope.features.period import thread_period
 from clothscope.fit.model import plane_grid
-from clothscope.fit.stage import NORMAL_FILE, STATE_FILE, load_state
+from clothscope.fit.outputs import NORMAL_FILE, STATE_FILE, load_state
+from clothscope.prepare.image import STATUS_FILE
 from clothscope.synth.generate import fold_surface
 
 
@@ -308,15 +310,19 @@ def effects_comparison(table: Any, column: str, planned: str, full: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_accuracy_report(images: list[str], fit_dirs: list[str], truth_jsons: list[Any], benchmark_root: str,
-                          table: str, summary: str, prepared_statuses: list[str] | None = None) -> int:
-    """Evaluate every image and write the CSV table and the Markdown summary atomically."""
+def write_accuracy_report(photos: dict[str, str], normals_dirs: list[str], prepared_dirs: list[str], benchmark_root: str,
+                          table: str, summary: str) -> int:
+    """The ``fit_accuracy`` rule: every image's fit against the ground truth beside its photo.
 
-
-    statuses = prepared_statuses or [None] * len(images)
-    rows = [evaluate_fit(image, fit_dir, truth, {s: os.path.join(benchmark_root, f"fit_{s}", f"{image}.tsv")
-                                                 for s in ("geometry", "material", "normals")}, status)
-            for image, fit_dir, truth, status in zip(images, fit_dirs, truth_jsons, statuses)]
+    ``photos`` maps image id to photo path, in the order of ``normals_dirs`` (each
+    image's ``normals`` stage folder) and ``prepared_dirs``. Writes the CSV table
+    and the Markdown summary atomically and returns the number of images.
+    """
+    rows = []
+    for (image, photo), normals_dir, prepared_dir in zip(photos.items(), normals_dirs, prepared_dirs, strict=True):
+        benchmarks = {s: os.path.join(benchmark_root, f"fit_{s}", f"{image}.tsv") for s in ("geometry", "material", "normals")}
+        rows.append(evaluate_fit(image, Path(normals_dir).parent, truth_paths(Path(photo))["json"], benchmarks,
+                                 Path(prepared_dir) / STATUS_FILE))
     frame = pd.DataFrame(rows)
     write_text(table, frame.to_csv(index=False, float_format="%.6g"))
     write_text(summary, summarise(frame))

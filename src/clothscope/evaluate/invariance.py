@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from matplotlib.colors import hsv_to_rgb, rgb_to_hsv
 from scipy import ndimage
 
 from clothscope.classify.qda import make_qda
@@ -169,8 +170,6 @@ def zoom_photo(rgb: np.ndarray, factor: float) -> np.ndarray:
 
 def shift_hue(rgb: np.ndarray, degrees: float) -> np.ndarray:
     """Turn every pixel's hue by ``degrees`` (HSV), keeping saturation and value: a cloth dyed another colour."""
-    from matplotlib.colors import hsv_to_rgb, rgb_to_hsv
-
     hsv = rgb_to_hsv(np.clip(_check_photo(rgb), 0.0, 1.0))
     hsv[..., 0] = (hsv[..., 0] + degrees / 360.0) % 1.0
     return hsv_to_rgb(hsv)

@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from clothscope.core.atomic import write_text, write_with
+from clothscope.core.atomic import write_text
+from clothscope.core.figures import new_figure, save_png
 from clothscope.features.plots import plot_placeholder
 from clothscope.features.sources import load_fitted, load_truth
 from clothscope.features.structure import PROFILE_RHO, StructureSettings, structure_features
@@ -107,12 +108,8 @@ def what_differs(summary_row: pd.Series) -> str:
 
 def plot_profiles(rows: pd.DataFrame, target: str | os.PathLike[str]) -> None:
     """Mean radial profiles (log10 band-power share against radius in units of the fundamental) per class."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     classes = sorted(rows["fabric_class"].unique())
-    fig = Figure(figsize=(3.0 * len(classes), 3.0))
-    FigureCanvasAgg(fig)
+    fig = new_figure(3.0 * len(classes), 3.0)
     for k, fabric in enumerate(classes):
         ax = fig.add_subplot(1, len(classes), k + 1)
         group = rows[rows["fabric_class"] == fabric]
@@ -129,7 +126,7 @@ def plot_profiles(rows: pd.DataFrame, target: str | os.PathLike[str]) -> None:
             ax.set_ylabel("log10 power share", fontsize=8)
             ax.legend(fontsize=6)
     fig.tight_layout()
-    write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=80))
+    save_png(fig, target, dpi=80)
 
 
 def diagnosis_job(images: dict[str, dict[str, str]], settings: StructureSettings, md_path: str, csv_path: str,

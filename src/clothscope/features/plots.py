@@ -4,7 +4,7 @@ from __future__ import annotations
 import os
 import textwrap
 
-from clothscope.core.atomic import write_with
+from clothscope.core.figures import new_figure, save_png
 from clothscope.features.paper import SpectrumResult
 
 
@@ -26,14 +26,11 @@ def plot_analysis(result: SpectrumResult, target: str | os.PathLike[str], title:
     dpi : int
         Resolution of the PNG.
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Circle
+    from matplotlib.patches import Circle  # matplotlib is loaded by new_figure in any case
 
     size = result.z_map.shape[0]
     centre = size // 2
-    fig = Figure(figsize=(8.0, 8.0))
-    FigureCanvasAgg(fig)
+    fig = new_figure(8.0, 8.0)
     axes = fig.subplots(2, 2)
     panels = [
         (result.z_map, "z component of the normal map", "gray"),
@@ -58,20 +55,16 @@ def plot_analysis(result: SpectrumResult, target: str | os.PathLike[str], title:
         fig.suptitle(title)
     fig.tight_layout()
     try:
-        write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi))
+        save_png(fig, target, dpi=dpi)
     finally:
         fig.clf()
 
 
 def plot_placeholder(target: str | os.PathLike[str], title: str, reason: str) -> None:
     """A PNG that says why an image has no spectrum plot, atomically."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(6.0, 3.0))
-    FigureCanvasAgg(fig)
+    fig = new_figure(6.0, 3.0)
     ax = fig.add_subplot(1, 1, 1)
     ax.axis("off")
     ax.text(0.5, 0.5, textwrap.fill(reason, 70), ha="center", va="center", fontsize=9, wrap=True)
     fig.suptitle(title)
-    write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=80))
+    save_png(fig, target, dpi=80)

@@ -13,8 +13,7 @@ import numpy as np
 from clothscope.core.imageio import luminance as photo_luminance
 from clothscope.core.imageio import read_exr, read_png
 from clothscope.core.truth import decode_normal, truth_paths
-from clothscope.fit.normals import SHADE_FILE
-from clothscope.fit.stage import HEIGHT_FILE, NORMAL_FILE, STATE_FILE
+from clothscope.fit.outputs import HEIGHT_FILE, NORMAL_FILE, SHADE_FILE, STATE_FILE
 from clothscope.prepare.image import IMAGE_FILE, STATUS_FILE
 
 #: Where the maps come from: synthetic ground truth, the inverse renderer, or the photo alone.

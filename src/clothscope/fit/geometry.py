@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
+import drjit as dr
 import numpy as np
 
 from clothscope.fit.effects import Evidence, geometry_evidence, plan_stage
@@ -32,10 +33,10 @@ from clothscope.fit.light import (
     plane_points,
     tilted,
 )
-from clothscope.fit.loop import LoopSettings, optimise
+from clothscope.fit.loop import LoopSettings, optimise, render
 from clothscope.fit.material import apply_material, material_from_latents, material_latents
 from clothscope.fit.model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
-from clothscope.fit.stage import Target, at_resolution, image_loss, render
+from clothscope.fit.target import Target, at_resolution, image_loss
 from clothscope.fit.tilt import TiltEstimate, estimate_tilt
 
 
@@ -116,8 +117,6 @@ def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, se
     ``normal`` is the cloth's pinned mean normal, against which the light's
     exposure convention is kept.
     """
-    import drjit as dr
-
     scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), settings.sampler, sample_border=plan.projective)
     params = mi.traverse(scene)
     steps = mi.ad.LargeSteps(params[BSDF_KEYS["vertices"]], params["cloth.faces"], settings.large_steps_lambda)

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from types import ModuleType
 
+import drjit as dr
+
 NAME = "direct_unshadowed"
 _REGISTERED: set[str] = set()
 
@@ -21,8 +23,6 @@ def register(mi: ModuleType) -> None:
     variant = str(mi.variant())
     if variant in _REGISTERED:
         return
-    import drjit as dr
-
     class UnshadowedDirect(mi.ad.integrators.common.ADIntegrator):
         """Emitter-sampled single scattering without visibility tests."""
 

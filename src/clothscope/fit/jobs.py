@@ -25,25 +25,27 @@ from clothscope.fit.effects import geometry_evidence, plan_stage
 from clothscope.fit.geometry import GeometrySettings, fit_geometry
 from clothscope.fit.material import MaterialSettings, fit_material
 from clothscope.fit.model import PREVIEW_SAMPLER, FitScene, build_scene, shaded_texture
-from clothscope.fit.normals import ALBEDO_FILE, SHADE_FILE, NormalSettings, fit_normals, height_to_normals_np
-from clothscope.fit.stage import (
+from clothscope.fit.normals import NormalSettings, fit_normals, height_to_normals_np
+from clothscope.fit.outputs import (
+    ALBEDO_FILE,
+    COMPARISON_FILE,
     HEIGHT_FILE,
     LOSS_FILE,
+    MATERIAL_FILE,
+    MESH_FILE,
     NORMAL_FILE,
+    NORMAL_PNG_FILE,
+    SCENE_FILE,
+    SHADE_FILE,
     STATE_FILE,
-    SkipStage,
-    Target,
-    at_resolution,
-    load_prepared,
     load_state,
-    psnr,
     save_state,
     scene_xml,
     write_comparison,
     write_loss_curve,
 )
+from clothscope.fit.target import SkipStage, Target, at_resolution, load_prepared, psnr
 
-MESH_FILE = "mesh.ply"
 PREVIEW_SPP = 32
 
 
@@ -80,11 +82,11 @@ def _write_common(tmp: Path, mi: Any, fit: FitScene, photo: Target, curve: list[
     rendered, scene = _render_fit(mi, fit, photo.resolution, texture, albedo)
     record["psnr_db"] = psnr(rendered, photo)
     write_loss_curve(tmp / LOSS_FILE, curve)
-    write_comparison(tmp / "compare.png", photo, rendered)
+    write_comparison(tmp / COMPARISON_FILE, photo, rendered)
     scene.shapes()[0].write_ply(str(tmp / MESH_FILE))
     if albedo is not None:
         write_exr(tmp / ALBEDO_FILE, albedo)
-    write_text(tmp / "scene.xml", scene_xml(fit, MESH_FILE, normal_file, photo.resolution,
+    write_text(tmp / SCENE_FILE, scene_xml(fit, MESH_FILE, normal_file, photo.resolution,
                                             albedo_file=None if albedo is None else ALBEDO_FILE))
     save_state(tmp, fit, record | {"runtime": runtime_metadata(mi)})
     return record
@@ -122,7 +124,7 @@ def material_job(prepared_dir: str, geometry_dir: str, out_dir: str, settings: M
         fit.material, loop = fit_material(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log)
         record = {"effects": [plan.as_record()], "warnings": loop.warnings, "stopped": loop.stopped,
                   "final_loss": loop.best_loss, "settings": settings.__dict__, "material": fit.material.as_dict()}
-        write_json(tmp / "material.json", {"material": fit.material.as_dict(), "effects": [plan.as_record()],
+        write_json(tmp / MATERIAL_FILE, {"material": fit.material.as_dict(), "effects": [plan.as_record()],
                                            "warnings": loop.warnings})
         return _write_common(tmp, mi, fit, photo, [r | {"phase": "material"} for r in loop.curve], record, None, None)
 
@@ -143,18 +145,18 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
         write_exr(tmp / HEIGHT_FILE, np.repeat(height[..., None], 3, axis=2).astype(np.float32))
         if shade is not None:
             write_exr(tmp / SHADE_FILE, np.repeat(shade[..., None], 3, axis=2).astype(np.float32))
-        write_png(tmp / "normal.png", normals * 0.5 + 0.5)
+        write_png(tmp / NORMAL_PNG_FILE, normals * 0.5 + 0.5)
         texels_per_pixel = settings.texture / (photo.resolution * (1 + fit.margin))
         record = {"effects": [plan.as_record()], "warnings": [w for loop in loops for w in loop.warnings],
                   "stopped": [loop.stopped for loop in loops], "final_loss": min(loop.best_loss for loop in loops),
                   "settings": settings.__dict__, "material": fit.material.as_dict(), "texels_per_pixel": texels_per_pixel,
                   "colour_model": colour.as_record()}
-        write_json(tmp / "material.json", {"material": fit.material.as_dict(), "effects": [plan.as_record()],
+        write_json(tmp / MATERIAL_FILE, {"material": fit.material.as_dict(), "effects": [plan.as_record()],
                                            "refined_jointly_with_normal_map": True, "texels_per_pixel": texels_per_pixel,
                                            "colour_model": colour.as_record()})
         curve = [r | {"phase": phase} for phase, loop in zip(("normals", "normals+bsdf"), loops) for r in loop.curve]
         textured = shade is not None or colour.layout is not None
         albedo = shaded_texture(fit.material, np.ones(normals.shape[:2]) if shade is None else shade, colour.layout) if textured else None
-        return _write_common(tmp, mi, fit, photo, curve, record, normals * 0.5 + 0.5, "normal.png", albedo)
+        return _write_common(tmp, mi, fit, photo, curve, record, normals * 0.5 + 0.5, NORMAL_PNG_FILE, albedo)
 
     return _run_job(out_dir, "normals", log, body)

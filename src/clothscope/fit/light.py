@@ -15,6 +15,7 @@ from __future__ import annotations
 from types import ModuleType
 from typing import Any
 
+import drjit as dr
 import numpy as np
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
@@ -118,8 +119,6 @@ def cloth_normal(slope_x: float, slope_y: float) -> np.ndarray:
 
 def apply_light(mi: ModuleType, params: Any, light: PointLight, latent: Any, normal: np.ndarray) -> None:
     """Write the light turned by ``latent`` into the scene, its intensity following the exposure convention."""
-    import drjit as dr
-
     def normalise(d: list[Any]) -> Any:
         return dr.normalize(mi.Vector3f(*d))
 

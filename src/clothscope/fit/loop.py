@@ -21,8 +21,10 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from types import ModuleType
 from typing import Any
 
+import drjit as dr
 import numpy as np
 
 Variables = dict[str, np.ndarray]
@@ -86,8 +88,6 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
     loss_fn : builds the scene from the optimiser's variables (a dict-like of
         differentiable arrays), renders and returns a scalar differentiable loss.
     """
-    import drjit as dr
-
     lr = settings.learning_rate
     opt = adam(mi, initial, settings, lr)
     result = LoopResult(best={k: v.copy() for k, v in initial.items()}, best_loss=math.inf)
@@ -137,3 +137,25 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
     log.info("%s: %d iterations, best loss %.4g, stopped: %s, %.1f s", name, len(result.curve), result.best_loss,
              result.stopped, result.seconds)
     return result
+
+
+# --- differentiable pieces every stage's loss uses -----------------------------------------
+
+def render(mi: ModuleType, scene: Any, params: Any, spp: int, seed: int, spp_grad: int = 0) -> Any:
+    """Render with a fresh seed per iteration (the primal and gradient noise decorrelate).
+
+    ``spp`` samples per pixel go into the image the loss compares with the photo,
+    ``spp_grad`` into the gradient pass (0: the same as ``spp``).
+    """
+    return mi.render(scene, params, spp=spp, spp_grad=spp_grad, seed=seed, seed_grad=seed + 100_003)
+
+
+def sigmoid(x: Any) -> Any:
+    """The logistic function on Dr.Jit arrays: a latent in R onto (0, 1)."""
+    return 1.0 / (1.0 + dr.exp(-x))
+
+
+def logit(p: np.ndarray | float) -> np.ndarray:
+    """The inverse of :func:`sigmoid` (NumPy), with ``p`` clipped to [1e-4, 1 - 1e-4] so it stays finite."""
+    p = np.clip(np.asarray(p, dtype=np.float32), 1e-4, 1 - 1e-4)
+    return np.log(p / (1 - p)).astype(np.float32)

@@ -11,13 +11,14 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
+import drjit as dr
 import numpy as np
 from scipy.special import expit
 
 from clothscope.fit.effects import Plan
-from clothscope.fit.loop import LoopSettings, optimise
+from clothscope.fit.loop import LoopSettings, logit, optimise, render, sigmoid
 from clothscope.fit.model import BSDF_KEYS, FitScene, Material, build_scene
-from clothscope.fit.stage import Target, image_loss, logit, render, sigmoid
+from clothscope.fit.target import Target, image_loss
 
 
 @dataclass(frozen=True)
@@ -48,8 +49,6 @@ def material_from_latents(latents: dict[str, np.ndarray], min_roughness: float) 
 
 def base_color(mi: ModuleType, latent: Any) -> Any:
     """Differentiable RGB base colour in (0, 1) of its 3-element latent."""
-    import drjit as dr
-
     return mi.Color3f(*(sigmoid(dr.gather(mi.Float, latent, i)) for i in range(3)))
 
 

@@ -57,6 +57,7 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
+import drjit as dr
 import numpy as np
 from scipy import ndimage
 from scipy.special import expit
@@ -64,10 +65,10 @@ from scipy.special import expit
 from clothscope.fit.colour import ColourModel
 from clothscope.fit.effects import Plan
 from clothscope.fit.large_steps import HeightSteps
-from clothscope.fit.loop import LoopSettings, optimise
+from clothscope.fit.loop import LoopSettings, optimise, render, sigmoid
 from clothscope.fit.material import apply_material, material_from_latents, material_latents
 from clothscope.fit.model import BSDF_KEYS, FitScene, Material, build_scene, flat_normal_texture, shaded_texture, texel_centres
-from clothscope.fit.stage import Target, image_loss, render, sigmoid
+from clothscope.fit.target import Target, image_loss
 from clothscope.prepare.shading import shading
 
 
@@ -96,10 +97,6 @@ class NormalSettings:
     initial_slope: float  # RMS slope of the shading start (tangent of the tilt)
 
 
-#: File of the fitted shade texture in the stage's output folder (three equal channels).
-SHADE_FILE = "shade.exr"
-#: File of the fitted base-colour texture (linear RGB: colour times shade times dye layout), which ``scene.xml`` reads.
-ALBEDO_FILE = "albedo.exr"
 #: Logistic latent of a shade of 1 (the shade texture's start and prior centre); s0 = sigmoid(SHADE_LATENT0).
 SHADE_LATENT0 = 2.0
 
@@ -146,8 +143,6 @@ def initial_height(photo: np.ndarray, size: int, margin: float, slope: float) ->
 
 def normal_texture(mi: ModuleType, height: Any, neighbours: dict[str, Any], size: int) -> Any:
     """Differentiable encoded normal texture (0.5 n + 0.5) of a flat height array."""
-    import drjit as dr
-
     g = lambda key: dr.gather(mi.Float, height, neighbours[key])  # noqa: E731
     dx = (g("right") - g("left")) * 0.5
     dy = -(g("down") - g("up")) * 0.5
@@ -157,8 +152,6 @@ def normal_texture(mi: ModuleType, height: Any, neighbours: dict[str, Any], size
 
 def curvature(mi: ModuleType, height: Any, neighbours: dict[str, Any]) -> Any:
     """Differentiable 4-neighbour Laplacian of a flat height array (clamped at the border)."""
-    import drjit as dr
-
     g = lambda key: dr.gather(mi.Float, height, neighbours[key])  # noqa: E731
     return g("left") + g("right") + g("up") + g("down") - 4.0 * height
 
@@ -176,8 +169,6 @@ def shade_of(mi: ModuleType, latent: Any) -> Any:
 def albedo_texture(mi: ModuleType, color_latent: Any, size: int, shade_latent: Any = None,
                    layout: tuple[Any, Any, Any] | None = None) -> Any:
     """Differentiable (size, size, 3) base-colour texture: the material colour times the shade and the dye layout."""
-    import drjit as dr
-
     color = [sigmoid(dr.gather(mi.Float, color_latent, i)) for i in range(3)]
     if shade_latent is not None:
         shade = shade_of(mi, shade_latent)
@@ -193,8 +184,6 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
 
     ``colour``: the base colour's model (:mod:`.colour`); its layout texture must be ``settings.texture`` texels wide.
     """
-    import drjit as dr
-
     size = settings.texture
     shaded = settings.albedo_weight > 0
     layout_np = None if colour is None else colour.layout

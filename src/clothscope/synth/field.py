@@ -36,6 +36,7 @@ from scipy import ndimage
 from clothscope.core.atomic import write_json, write_with
 from clothscope.core.imageio import linear_to_srgb, write_png
 from clothscope.core.mesh import cloth_mesh
+from clothscope.core.runtime import mitsuba_for, runtime_metadata
 from clothscope.core.truth import encode_normal, truth_paths
 from clothscope.synth.fabrics import FABRICS, PLAIN, TWILL21, TWILL31, FabricSpec, knit_height, pile_height, woven_layers
 from clothscope.synth.generate import CLOTH_HALF, PATTERNS, HeightField, displaced_grid, fold_map, quantise_height, truth_maps
@@ -347,7 +348,6 @@ def synthesize_field(fabric: str, number: int, seed: int, spp: int, max_mesh_res
         raise ValueError(f"image number must be >= 0, got {number}")
     if not 0.0 < scale <= 1.0:
         raise ValueError(f"scale must be in (0, 1], got {scale}")
-    from clothscope.core.runtime import mitsuba_for, runtime_metadata
 
     started = time.perf_counter()
     spec, rng = FIELD_FABRICS[fabric], field_rng(seed, fabric, number)

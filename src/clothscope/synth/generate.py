@@ -19,6 +19,7 @@ from scipy import ndimage
 from clothscope.core.atomic import write_json, write_with
 from clothscope.core.imageio import linear_to_srgb, write_png
 from clothscope.core.mesh import cloth_mesh
+from clothscope.core.runtime import mitsuba_for, runtime_metadata
 from clothscope.core.truth import encode_normal, truth_paths
 from clothscope.synth.fabrics import BASKET, FABRICS, PLAIN, SATIN5, FabricSpec, knit_height, pile_height, woven_height
 from clothscope.synth.scene import Camera, Light, cloth_bsdf, effects_for, render, scene_dict
@@ -231,7 +232,6 @@ def synthesize(fabric: str, dye_index: int, seed: int, resolution: int, spp: int
         raise ValueError(f"unknown fabric class {fabric!r}; known: {', '.join(FABRICS)}")
     if not 0 <= dye_index < len(DYES):
         raise ValueError(f"dye_index must be in 0..{len(DYES) - 1}, got {dye_index}")
-    from clothscope.core.runtime import mitsuba_for, runtime_metadata
 
     started = time.perf_counter()
     spec, dye = FABRICS[fabric], list(DYES)[dye_index]

@@ -1,119 +1,45 @@
-"""What every fit stage shares: targets, the image loss, rendering and stage outputs."""
+"""A fit stage's output folder: its file names, its state record, loss curve, comparison figure and scene file.
+
+Each stage (``geometry``, ``material``, ``normals``) writes one folder; the next
+stage, the ``features`` rule and the accuracy benchmark read it through the
+names and readers here.
+"""
 from __future__ import annotations
 
 import csv
 import io
 import json
 import os
-from dataclasses import dataclass, field
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import numpy as np
 
 from clothscope.core.atomic import write_json, write_text, write_with
-from clothscope.core.imageio import decode_exr, linear_to_srgb, read_png, write_png
+from clothscope.core.imageio import linear_to_srgb, write_png
 from clothscope.fit.model import PREVIEW_SAMPLER, FitCamera, FitScene, Material, PointLight
-from clothscope.prepare.image import CLIPPED_FILE, IMAGE_FILE, read_status, resize_channel
+from clothscope.fit.target import SkipStage, Target, box_downsample
 
-#: Files of a fit stage's output folder: its record, the mesh grid, the loss curve, and the normal-map stage's maps.
+#: The stage's record (status, settings, fitted scene) and its mesh grid (read back by :func:`load_state`).
 STATE_FILE = "state.json"
 GRID_FILE = "grid.npy"
+#: The loss curve (:func:`write_loss_curve`) and the photo | fit | error figure (:func:`write_comparison`).
 LOSS_FILE = "loss.csv"
+COMPARISON_FILE = "compare.png"
+#: The fitted mesh and a Mitsuba scene that re-renders the fit (:func:`scene_xml`).
+MESH_FILE = "mesh.ply"
+SCENE_FILE = "scene.xml"
+#: The fitted BSDF (material and normals stages).
+MATERIAL_FILE = "material.json"
+#: The normals stage's maps: unit normals (xyz), relief (three equal channels) and the normal map as a PNG.
 NORMAL_FILE = "normal.exr"
 HEIGHT_FILE = "height.exr"
+NORMAL_PNG_FILE = "normal.png"
+#: The fitted shade texture (three equal channels), when the colour model fits one.
+SHADE_FILE = "shade.exr"
+#: The fitted base-colour texture (linear RGB: colour times shade times dye layout), which ``scene.xml`` reads.
+ALBEDO_FILE = "albedo.exr"
 
-
-class SkipStage(Exception):
-    """The input of a stage was rejected upstream; the stage records a skip."""
-
-
-@dataclass
-class Target:
-    """A photo at one resolution and its per-pixel weights (0 on clipped pixels)."""
-
-    image: np.ndarray
-    weight: np.ndarray
-    cache: dict[str, Any] = field(default_factory=dict, repr=False)
-
-    @property
-    def resolution(self) -> int:
-        return int(self.image.shape[0])
-
-
-def load_prepared(prepared_dir: str | os.PathLike[str]) -> Target:
-    """The working image and clipped mask of a prepared image; SkipStage if it was rejected."""
-    status = read_status(prepared_dir)
-    if status.get("status") != "accepted":
-        raise SkipStage(f"rejected by prepare: {status.get('reason', '')}")
-
-    decoded = decode_exr(Path(prepared_dir) / IMAGE_FILE, 1, 1e9)
-    clipped = read_png(Path(prepared_dir) / CLIPPED_FILE) > 0.5
-    return Target(decoded.rgb.astype(np.float32), (~clipped).astype(np.float32))
-
-
-def box_downsample(array: np.ndarray, size: int) -> np.ndarray:
-    """Area-average an (H, W[, C]) array to size x size (exact block means when H is a multiple of size)."""
-    height = array.shape[0]
-    if height == size:
-        return array.astype(np.float32)
-    if height % size == 0:
-        f = height // size
-        shape = (size, f, size, f) + array.shape[2:]
-        return array.reshape(shape).mean(axis=(1, 3)).astype(np.float32)
-    if array.ndim == 2:
-        return resize_channel(array, size)
-    return np.stack([resize_channel(array[..., c], size) for c in range(array.shape[2])], axis=-1)
-
-
-def at_resolution(target: Target, size: int) -> Target:
-    """The target box-filtered to ``size`` px; a pixel counts only if no clipped pixel fell into it."""
-    return Target(box_downsample(target.image, size), (box_downsample(target.weight, size) > 0.999).astype(np.float32))
-
-
-def image_loss(mi: ModuleType, rendered: Any, target: Target) -> Any:
-    """Weighted mean squared error, normalised by the target's mean square (so black cloth still has gradients)."""
-    import drjit as dr
-
-    if "loss" not in target.cache:  # device copies and constants made once per stage, not per iteration
-        weight = np.repeat(target.weight[..., None], 3, axis=2)
-        scale = 1.0 / ((float(weight.sum()) + 1.0) * (float(np.mean(target.image**2)) + 1e-6))
-        target.cache["loss"] = (mi.TensorXf(target.image), mi.TensorXf(weight * scale))
-    t, w = target.cache["loss"]
-    return dr.sum((rendered - t) ** 2 * w, axis=None)
-
-
-def render(mi: ModuleType, scene: Any, params: Any, spp: int, seed: int, spp_grad: int = 0) -> Any:
-    """Render with a fresh seed per iteration (the primal and gradient noise decorrelate).
-
-    ``spp`` samples per pixel go into the image the loss compares with the photo,
-    ``spp_grad`` into the gradient pass (0: the same as ``spp``).
-    """
-    return mi.render(scene, params, spp=spp, spp_grad=spp_grad, seed=seed, seed_grad=seed + 100_003)
-
-
-def psnr(rendered: np.ndarray, target: Target) -> float:
-    """PSNR (dB) of the sRGB-encoded images over unclipped pixels, capped at 99 dB."""
-    a = linear_to_srgb(np.clip(rendered, 0.0, 1.0))
-    b = linear_to_srgb(np.clip(target.image, 0.0, 1.0))
-    w = target.weight[..., None] * np.ones(3)
-    mse = float(np.sum((a - b) ** 2 * w) / max(np.sum(w), 1.0))
-    return float(min(99.0, 10 * np.log10(1.0 / max(mse, 1e-10))))
-
-
-def sigmoid(x: Any) -> Any:
-    import drjit as dr
-
-    return 1.0 / (1.0 + dr.exp(-x))
-
-
-def logit(p: np.ndarray | float) -> np.ndarray:
-    p = np.clip(np.asarray(p, dtype=np.float32), 1e-4, 1 - 1e-4)
-    return np.log(p / (1 - p)).astype(np.float32)
-
-
-# --- stage outputs ---------------------------------------------------------------------------
 
 def write_loss_curve(target: Path, curve: list[dict[str, float]]) -> None:
     """Loss curve CSV: iteration, loss, learning_rate, seconds (phase column when present)."""
