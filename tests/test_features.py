@@ -253,7 +253,8 @@ def test_truth_mode_end_to_end_and_incremental(fresh_clone, tmp_path):
 
 
 def test_classify_without_enough_labels_reports_why_instead_of_failing(tmp_path):
-    from clothscope.classify.job import RECORDS_FILE, classify_job
+    from clothscope.classify.job import classify_job
+    from clothscope.classify.outputs import RECORDS_FILE
     from clothscope.physics.job import physics_job
 
     settings = config_settings("features")

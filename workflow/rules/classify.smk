@@ -14,10 +14,10 @@ rule classify:
             [] if wildcards.source == "photo" else feature_table("photo")
         ),
     output:
-        reports=[classify_report(name) for name in CLASSIFY_REPORTS],
+        reports=[classify_report(name) for name in REPORT_FILES],
         model_arrays=os.path.join(RESULTS, "models", "{source}", "model.npz"),
         model_record=os.path.join(RESULTS, "models", "{source}", "model.json"),
-        records=reports_path("{source}", "records.json"),
+        records=reports_path("{source}", RECORDS_FILE),
     log:
         os.path.join(RESULTS, "logs", "classify", "{source}.log"),
     conda:

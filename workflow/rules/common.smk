@@ -2,8 +2,9 @@
 import os
 import sys
 
-from clothscope.core.imageio import file_problem
+from clothscope.classify.outputs import IN_SNAKEMAKE_REPORT, RECORDS_FILE, REPORT_FILES
 from clothscope.core.config import SCHEMA_PATH
+from clothscope.core.imageio import file_problem
 from clothscope.core.samples import SAMPLES_SCHEMA_PATH, load_sample_sheet
 from clothscope.core.schema import InputError, apply_preset, load_schema, validate
 
@@ -161,23 +162,10 @@ def reports_path(source, name):
     return os.path.join(RESULTS, "reports", source, name)
 
 
-CLASSIFY_REPORTS = (
-    "accuracy.json",
-    "confusion.csv",
-    "confusion.png",
-    "per_class.csv",
-    "predictions.csv",
-    "images.tsv",
-    "summary.md",
-)
-#: ... and those shown in the Snakemake report (`snakemake --report report.html`)
-CLASSIFY_IN_REPORT = ("summary.md", "confusion.png", "per_class.csv")
-
-
 def classify_report(name):
-    """One output of the classify rule, marked for the Snakemake report when it is one of CLASSIFY_IN_REPORT."""
+    """One output of the classify rule, marked for the Snakemake report when it is one of IN_SNAKEMAKE_REPORT."""
     path = reports_path("{source}", name)
-    if name not in CLASSIFY_IN_REPORT:
+    if name not in IN_SNAKEMAKE_REPORT:
         return path
     return report(
         path,
@@ -189,7 +177,7 @@ def classify_report(name):
 
 
 def classify_outputs(source):
-    return [reports_path(source, name) for name in CLASSIFY_REPORTS]
+    return [reports_path(source, name) for name in REPORT_FILES]
 
 
 def report_sources():

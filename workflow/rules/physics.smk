@@ -5,7 +5,7 @@
 
 rule physics:
     input:
-        records=reports_path("{source}", "records.json"),
+        records=reports_path("{source}", RECORDS_FILE),
         physics=config["classify"]["physics"],
     output:
         [

@@ -23,6 +23,16 @@ from clothscope import __version__
 from clothscope.classify.feature_sets import classifier_candidates, inverse_rendering_gain, joined_table
 from clothscope.classify.loocv import choose_columns, loocv
 from clothscope.classify.model import predict, save_model, save_untrained, train_model
+from clothscope.classify.outputs import (
+    ACCURACY_FILE,
+    CONFUSION_CSV_FILE,
+    CONFUSION_FILE,
+    IMAGES_FILE,
+    PER_CLASS_FILE,
+    PREDICTIONS_FILE,
+    RECORDS_FILE,
+    SUMMARY_FILE,
+)
 from clothscope.classify.reports import write_reports
 from clothscope.classify.rows import POSTERIOR_PREFIX, split_labelled
 from clothscope.core.atomic import write_json, write_text
@@ -31,7 +41,6 @@ from clothscope.features.sources import STATUS_OK
 from clothscope.features.table import read_table
 
 #: Per-image records (status, prediction, posteriors) in the reports folder, read by the ``physics`` rule.
-RECORDS_FILE = "records.json"
 
 
 def _posteriors(row: pd.Series) -> dict[str, float]:
@@ -59,7 +68,7 @@ def versus_photo_line(comparison_csv: str | os.PathLike[str] | None, source: str
 
 def write_summary(reports_dir: str | os.PathLike[str], title: str, feature_set: str, accuracy_line: str, versus: str) -> None:
     """``summary.md``: the classifier's accuracy and what the fit bought over the photo alone, in three lines."""
-    write_text(Path(reports_dir) / "summary.md", f"# {title}\n\nFeature set: `{feature_set}`. {accuracy_line}\n\n{versus}\n")
+    write_text(Path(reports_dir) / SUMMARY_FILE, f"# {title}\n\nFeature set: `{feature_set}`. {accuracy_line}\n\n{versus}\n")
 
 
 def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.PathLike[str], source: str, reg: float | str,
@@ -175,7 +184,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
                         "posterior": f"{max(record['posteriors'].values()):.6f}" if record["posteriors"] else "",
                         "reason": record["reason"]})
     write_json(Path(reports_dir) / RECORDS_FILE, records)
-    write_text(Path(reports_dir) / "images.tsv", pd.DataFrame(summary).to_csv(sep="\t", index=False, lineterminator="\n"))
+    write_text(Path(reports_dir) / IMAGES_FILE, pd.DataFrame(summary).to_csv(sep="\t", index=False, lineterminator="\n"))
     if log is not None:
         for problem in problems:
             log.warning("%s", problem)
@@ -191,11 +200,11 @@ def _write_unscored(reports_dir: str | os.PathLike[str], source: str, problems: 
     """The report files of :func:`clothscope.classify.reports.write_reports` when LOOCV could not run, saying why."""
     out = Path(reports_dir)
     reason = "; ".join(problems)
-    write_json(out / "accuracy.json", {"title": f"QDA, {source} normal maps", "status": "not run", "reason": reason,
+    write_json(out / ACCURACY_FILE, {"title": f"QDA, {source} normal maps", "status": "not run", "reason": reason,
                                        "n": 0, "correct": 0, "n_queries": int(len(queries))})
-    write_text(out / "confusion.csv", "true_class\n")
-    write_text(out / "per_class.csv", "class,support,predicted,correct,precision,recall\n")
+    write_text(out / CONFUSION_CSV_FILE, "true_class\n")
+    write_text(out / PER_CLASS_FILE, "class,support,predicted,correct,precision,recall\n")
     frame = queries.copy()
     frame["true_class"], frame["split"] = "", "query"
-    write_text(out / "predictions.csv", frame.to_csv(index=False, lineterminator="\n"))
-    plot_placeholder(out / "confusion.png", f"QDA, {source} normal maps", reason)
+    write_text(out / PREDICTIONS_FILE, frame.to_csv(index=False, lineterminator="\n"))
+    plot_placeholder(out / CONFUSION_FILE, f"QDA, {source} normal maps", reason)

@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from clothscope.classify.loocv import LoocvResult
+from clothscope.classify.outputs import ACCURACY_FILE, CONFUSION_CSV_FILE, CONFUSION_FILE, PER_CLASS_FILE, PREDICTIONS_FILE
 from clothscope.classify.rows import POSTERIOR_PREFIX, posterior_column
 from clothscope.core.atomic import write_json, write_text, write_with
 from clothscope.core.figures import new_figure, save_png
@@ -90,7 +91,7 @@ def write_reports(
         Report name to path.
     """
     out = Path(out_dir)
-    paths = {name: out / name for name in ("accuracy.json", "confusion.csv", "confusion.png", "per_class.csv", "predictions.csv")}
+    paths = {name: out / name for name in (ACCURACY_FILE, CONFUSION_CSV_FILE, CONFUSION_FILE, PER_CLASS_FILE, PREDICTIONS_FILE)}
     predictions = prediction_table(result, predictions_for_queries)
     accuracy = {
         "title": title,
@@ -115,9 +116,9 @@ def write_reports(
         "notes": list(result.notes),
         "selected_feature_sets": dict(result.selected),
     }
-    write_json(paths["accuracy.json"], accuracy)
-    _write_csv(paths["confusion.csv"], result.confusion, index=True)
-    write_with(paths["confusion.png"], lambda tmp: _confusion_figure(result.confusion, title, tmp))
-    _write_csv(paths["per_class.csv"], result.per_class)
-    _write_csv(paths["predictions.csv"], predictions)
+    write_json(paths[ACCURACY_FILE], accuracy)
+    _write_csv(paths[CONFUSION_CSV_FILE], result.confusion, index=True)
+    write_with(paths[CONFUSION_FILE], lambda tmp: _confusion_figure(result.confusion, title, tmp))
+    _write_csv(paths[PER_CLASS_FILE], result.per_class)
+    _write_csv(paths[PREDICTIONS_FILE], predictions)
     return paths

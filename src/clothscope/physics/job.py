@@ -1,6 +1,6 @@
 """The ``physics`` rule: each image's ArcSim material, from the classifier's record of it.
 
-Reads the per-image records the ``classify`` rule wrote (:data:`clothscope.classify.job.RECORDS_FILE`)
+Reads the per-image records the ``classify`` rule wrote (:data:`clothscope.classify.outputs.RECORDS_FILE`)
 and writes one JSON per image: the record plus ``physics``, the material of the likeliest class with
 the posterior-weighted mean and spread (:func:`clothscope.physics.materials.physics_for`), or None for an
 image that was not classified (its status and reason say why).
