@@ -40,8 +40,6 @@ from clothscope.features.plots import plot_placeholder
 from clothscope.features.sources import STATUS_OK
 from clothscope.features.table import read_table
 
-#: Per-image records (status, prediction, posteriors) in the reports folder, read by the ``physics`` rule.
-
 
 def _posteriors(row: pd.Series) -> dict[str, float]:
     values = {c[len(POSTERIOR_PREFIX):]: float(row[c]) for c in row.index if c.startswith(POSTERIOR_PREFIX)}
@@ -201,7 +199,7 @@ def _write_unscored(reports_dir: str | os.PathLike[str], source: str, problems: 
     out = Path(reports_dir)
     reason = "; ".join(problems)
     write_json(out / ACCURACY_FILE, {"title": f"QDA, {source} normal maps", "status": "not run", "reason": reason,
-                                       "n": 0, "correct": 0, "n_queries": int(len(queries))})
+                                     "n": 0, "correct": 0, "n_queries": int(len(queries))})
     write_text(out / CONFUSION_CSV_FILE, "true_class\n")
     write_text(out / PER_CLASS_FILE, "class,support,predicted,correct,precision,recall\n")
     frame = queries.copy()

@@ -10,7 +10,7 @@ import pandas as pd
 from clothscope.classify.loocv import LoocvResult
 from clothscope.classify.outputs import ACCURACY_FILE, CONFUSION_CSV_FILE, CONFUSION_FILE, PER_CLASS_FILE, PREDICTIONS_FILE
 from clothscope.classify.rows import POSTERIOR_PREFIX, posterior_column
-from clothscope.core.atomic import write_json, write_text, write_with
+from clothscope.core.atomic import write_json, write_text
 from clothscope.core.figures import new_figure, save_png
 
 
@@ -53,6 +53,7 @@ def prediction_table(result: LoocvResult, predictions_for_queries: pd.DataFrame 
 
 
 def _confusion_figure(confusion: pd.DataFrame, title: str, target: Path) -> None:
+    """The confusion matrix as a PNG (counts in the cells), written atomically."""
     counts = confusion.to_numpy()
     k = len(confusion)
     side = max(4.0, 0.75 * k + 2.5)
@@ -118,7 +119,7 @@ def write_reports(
     }
     write_json(paths[ACCURACY_FILE], accuracy)
     _write_csv(paths[CONFUSION_CSV_FILE], result.confusion, index=True)
-    write_with(paths[CONFUSION_FILE], lambda tmp: _confusion_figure(result.confusion, title, tmp))
+    _confusion_figure(result.confusion, title, paths[CONFUSION_FILE])
     _write_csv(paths[PER_CLASS_FILE], result.per_class)
     _write_csv(paths[PREDICTIONS_FILE], predictions)
     return paths
