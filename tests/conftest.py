@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from clothscope.core.schema import SCHEMA_DIR
+
 ROOT = Path(__file__).resolve().parents[1]
-SCHEMAS = ROOT / "src" / "clothscope" / "core" / "schemas"
+SCHEMAS = SCHEMA_DIR  # the package's schemas, as the workflow reads them
 SYNTHETIC = ROOT / "data" / "synthetic"
 
 
