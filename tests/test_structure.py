@@ -9,7 +9,14 @@ from hypothesis import settings as hsettings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from clothscope.classify.feature_sets import FEATURE_SETS, compare_feature_sets, group_columns, inverse_rendering_gain
+from clothscope.classify.feature_sets import (
+    FEATURE_SETS,
+    compare_feature_sets,
+    group_columns,
+    inverse_rendering_gain,
+    mcnemar_p,
+    report_markdown,
+)
 from clothscope.core.config import settings as config_settings
 from clothscope.features.structure import (
     LBP_COLUMNS,
@@ -180,6 +187,27 @@ def test_feature_sets_compare_on_the_same_images_and_say_what_the_fit_bought():
     line = inverse_rendering_gain(report, "structure_brdf_fitted")
     assert line.startswith("Inverse rendering bought") and "same 17 images" in line
     assert np.isfinite(report[["accuracy", "wilson_low", "wilson_high"]].to_numpy(float)).all()
+    # each set is paired image by image with the best photo-only set: the split of the images only one of
+    # them got right accounts for the whole difference in correct images
+    rows = report.set_index("feature_set")
+    reference = rows.loc["structure_brdf_fitted", "photo_reference"]
+    assert reference in rows.index and bool(rows.loc[reference, "photo_only"])
+    for name in ("structure_brdf_fitted", "paper_fitted", "auto_truth"):
+        row = rows.loc[name]
+        assert int(row["only_this_right"]) - int(row["only_photo_right"]) == int(row["correct"]) - int(rows.loc[reference, "correct"])
+        assert 0.0 < float(row["mcnemar_p"]) <= 1.0
+    assert pd.isna(rows.loc["lbp_photo", "mcnemar_p"])
+    assert f"only structure_brdf_fitted was right on {int(rows.loc['structure_brdf_fitted', 'only_this_right'])}" in line
+    assert "against the best photo" in report_markdown(report, line, list(tables), "discriminant")
+
+
+def test_mcnemar_p_is_the_exact_two_sided_binomial_test_of_the_discordant_images():
+    assert mcnemar_p(9, 2) == pytest.approx(2 * (1 + 11 + 55) / 2**11)  # 2 P(X <= 2), X ~ B(11, 1/2)
+    assert mcnemar_p(2, 9) == pytest.approx(mcnemar_p(9, 2))
+    assert mcnemar_p(0, 0) == 1.0 and mcnemar_p(3, 3) == 1.0
+    assert mcnemar_p(0, 10) == pytest.approx(2 / 2**10)
+    with pytest.raises(ValueError, match=">= 0"):
+        mcnemar_p(-1, 2)
 
 
 def test_truth_sets_are_not_scored_when_some_images_lack_ground_truth():

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
+from scipy.stats import binomtest
 
 from clothscope.classify.loocv import loocv
 from clothscope.core.atomic import write_text
@@ -136,19 +137,59 @@ def _unscored_row(feature_set: FeatureSet, reason: str) -> dict[str, object]:
 
 
 def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], images: list[str],
-                      reg: float | str, subspace: str) -> dict[str, object]:
-    """LOOCV of one feature set on ``images``: a report row (``status`` says why when not scored)."""
+                      reg: float | str, subspace: str) -> tuple[dict[str, object], pd.Series | None]:
+    """LOOCV of one feature set on ``images``: a report row (``status`` says why when not scored) and,
+    when scored, which images it classified correctly (boolean, by image id)."""
     try:
         frame, columns = joined_features(feature_set, tables, images)
         auto = [source for source, group in feature_set.parts if group == "auto"]
         result = loocv(frame, columns, reg, select_from=auto_candidates(columns, auto[0]) if auto else None,
                        subspace=subspace)
     except (KeyError, ValueError) as err:
-        return _unscored_row(feature_set, str(err))
+        return _unscored_row(feature_set, str(err)), None
     chosen = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
+    predictions = result.predictions.set_index("image_id")
+    right = predictions["predicted_class"] == predictions["true_class"]
     return {**_unscored_row(feature_set, f"folds chose: {chosen}" if chosen else ""), "status": "ok",
             "n_features": len(result.feature_columns), "n": result.n, "correct": result.correct, "accuracy": result.accuracy,
-            "wilson_low": result.wilson_low, "wilson_high": result.wilson_high, "chance": result.chance_uniform}
+            "wilson_low": result.wilson_low, "wilson_high": result.wilson_high, "chance": result.chance_uniform}, right
+
+
+def mcnemar_p(only_first: int, only_second: int) -> float:
+    """Two-sided exact McNemar p-value of two classifiers scored on the same images.
+
+    ``only_first`` and ``only_second`` count the images that only the first
+    (only the second) classified correctly; images both got right or both got
+    wrong say nothing about which is better. Without such images the p-value is 1.
+    """
+    if only_first < 0 or only_second < 0:
+        raise ValueError(f"McNemar counts must be >= 0, got {only_first} and {only_second}")
+    discordant = only_first + only_second
+    return 1.0 if discordant == 0 else float(binomtest(only_first, discordant, 0.5).pvalue)
+
+
+def paired_with_best_photo(report: pd.DataFrame, hits: dict[str, pd.Series]) -> pd.DataFrame:
+    """``report`` with each scored set paired, image by image, with the most accurate photo-only set.
+
+    Adds ``photo_reference`` (that set), ``only_this_right`` and
+    ``only_photo_right`` (images only this set, or only the photo set,
+    classified correctly) and ``mcnemar_p`` (:func:`mcnemar_p`); empty for
+    photo-only sets, for unscored sets, and when no photo-only set was scored.
+    """
+    out = report.assign(photo_reference="", only_this_right=pd.NA, only_photo_right=pd.NA, mcnemar_p=float("nan"))
+    photo = out[(out["status"] == "ok") & out["photo_only"].astype(bool)]
+    if photo.empty:
+        return out
+    reference = str(photo.loc[photo["accuracy"].idxmax(), "feature_set"])
+    for index, row in out.iterrows():
+        name = str(row["feature_set"])
+        if row["status"] != "ok" or bool(row["photo_only"]) or name not in hits:
+            continue
+        this, base = hits[name].align(hits[reference], join="inner")
+        only_this, only_photo = int((this & ~base).sum()), int((base & ~this).sum())
+        out.loc[index, ["photo_reference", "only_this_right", "only_photo_right", "mcnemar_p"]] = [
+            reference, only_this, only_photo, mcnemar_p(only_this, only_photo)]
+    return out
 
 
 def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subspace: str) -> pd.DataFrame:
@@ -160,14 +201,18 @@ def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subs
     base = {s: t for s, t in tables.items() if s != "truth"}
     images = common_images(base) if base else common_images(tables)
     rows = []
+    hits: dict[str, pd.Series] = {}
     for feature_set in FEATURE_SETS:
         if not all(source in tables for source in feature_set.sources):
             continue
         if "truth" in feature_set.sources and not set(images) <= set(map(str, usable(tables["truth"]).index)):
             rows.append(_unscored_row(feature_set, "some images have no ground truth"))
             continue
-        rows.append(score_feature_set(feature_set, tables, images, reg, subspace))
-    return pd.DataFrame(rows)
+        row, right = score_feature_set(feature_set, tables, images, reg, subspace)
+        rows.append(row)
+        if right is not None:
+            hits[feature_set.name] = right
+    return paired_with_best_photo(pd.DataFrame(rows), hits)
 
 
 def inverse_rendering_gain(report: pd.DataFrame, fitted_set: str) -> str:
@@ -182,7 +227,32 @@ def inverse_rendering_gain(report: pd.DataFrame, fitted_set: str) -> str:
     verb = "bought" if gain > 0 else ("cost" if gain < 0 else "changed nothing:")
     return (f"Inverse rendering {verb} {abs(gain):.1f} points over the photo alone: {fitted_set} "
             f"{100 * float(fitted['accuracy'].iloc[0]):.1f}% against the best photo-only set, {best['feature_set']}, "
-            f"{100 * float(best['accuracy']):.1f}% (LOOCV, same {int(best['n'])} images).")
+            f"{100 * float(best['accuracy']):.1f}% (LOOCV, same {int(best['n'])} images){paired_clause(fitted.iloc[0])}.")
+
+
+def _paired_counts(row: pd.Series) -> tuple[int, int, float] | None:
+    """``(only_this_right, only_photo_right, mcnemar_p)`` of a :func:`paired_with_best_photo` row; ``None`` if unpaired."""
+    try:
+        counts = int(row["only_this_right"]), int(row["only_photo_right"]), float(row["mcnemar_p"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    return counts if math.isfinite(counts[2]) else None
+
+
+def paired_clause(row: pd.Series) -> str:
+    """``; image by image, only <set> was right on a ...`` for a paired report row, or ``""`` for an unpaired one."""
+    paired = _paired_counts(row)
+    if paired is None:
+        return ""
+    only_this, only_photo, p = paired
+    return (f"; image by image, only {row['feature_set']} was right on {only_this} and only the photo's set on {only_photo} "
+            f"(exact McNemar p = {p:.2g}{', not significant at the 5% level' if p >= 0.05 else ''})")
+
+
+def _paired_cell(row: pd.Series) -> str:
+    """The report's pairing with the best photo-only set: ``+a / -b, p = ...``, or ``-``."""
+    paired = _paired_counts(row)
+    return "-" if paired is None else f"+{paired[0]} / -{paired[1]}, p = {paired[2]:.2g}"
 
 
 def _percent(value: float) -> str:
@@ -196,15 +266,18 @@ def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str], su
              f"{', in the discriminant subspace of each fold' if subspace == 'discriminant' else ''}) on the same labelled images, from the "
              f"sources {', '.join(sources)}. 95% Wilson intervals; chance is 1 / number of classes.", "",
              gain_line, "",
-             "| feature set | what | features | correct | accuracy | 95% interval | chance | note |",
-             "|---|---|---|---|---|---|---|---|"]
+             "The column 'against the best photo' pairs a set with the most accurate photo-only set on the same "
+             "images: +a / -b counts the images only this set (only the photo's set) got right, and p is the exact "
+             "McNemar test of that split (p >= 0.05: not significant at the 5% level on these images).", "",
+             "| feature set | what | features | correct | accuracy | 95% interval | chance | against the best photo | note |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for _, row in report.iterrows():
         if row["status"] != "ok":
-            lines.append(f"| {row['feature_set']} | {row['description']} | - | - | {row['status']} | - | - | {row['reason']} |")
+            lines.append(f"| {row['feature_set']} | {row['description']} | - | - | {row['status']} | - | - | - | {row['reason']} |")
             continue
         lines.append(f"| {row['feature_set']} | {row['description']} | {row['n_features']} | {row['correct']}/{row['n']} | "
                      f"{_percent(row['accuracy'])} | {_percent(row['wilson_low'])}-{_percent(row['wilson_high'])} | "
-                     f"{_percent(row['chance'])} | {row['reason'] if isinstance(row['reason'], str) else ''} |")
+                     f"{_percent(row['chance'])} | {_paired_cell(row)} | {row['reason'] if isinstance(row['reason'], str) else ''} |")
     lines += ["", "Features are standardised and constant columns dropped inside each fold; no setting of the "
               "descriptor or the classifier is chosen by these scores in the workflow (see docs/design.md for how "
               "the descriptor's defaults were chosen, and on which images)."]
