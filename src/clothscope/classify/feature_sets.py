@@ -168,6 +168,12 @@ def mcnemar_p(only_first: int, only_second: int) -> float:
     return 1.0 if discordant == 0 else float(binomtest(only_first, discordant, 0.5).pvalue)
 
 
+def best_photo_only(report: pd.DataFrame) -> pd.Series | None:
+    """The scored photo-only row of ``report`` with the highest accuracy (ties: the first), or ``None``."""
+    photo = report[(report["status"] == "ok") & report["photo_only"].astype(bool)]
+    return None if photo.empty else photo.loc[photo["accuracy"].idxmax()]
+
+
 def paired_with_best_photo(report: pd.DataFrame, hits: dict[str, pd.Series]) -> pd.DataFrame:
     """``report`` with each scored set paired, image by image, with the most accurate photo-only set.
 
@@ -177,13 +183,12 @@ def paired_with_best_photo(report: pd.DataFrame, hits: dict[str, pd.Series]) -> 
     photo-only sets, for unscored sets, and when no photo-only set was scored.
     """
     out = report.assign(photo_reference="", only_this_right=pd.NA, only_photo_right=pd.NA, mcnemar_p=float("nan"))
-    photo = out[(out["status"] == "ok") & out["photo_only"].astype(bool)]
-    if photo.empty:
+    best = best_photo_only(out)
+    if best is None:
         return out
-    reference = str(photo.loc[photo["accuracy"].idxmax(), "feature_set"])
-    for index, row in out.iterrows():
-        name = str(row["feature_set"])
-        if row["status"] != "ok" or bool(row["photo_only"]) or name not in hits:
+    reference = str(best["feature_set"])
+    for index, name in out["feature_set"].items():
+        if name not in hits or bool(out.at[index, "photo_only"]):  # hits holds the scored sets only
             continue
         this, base = hits[name].align(hits[reference], join="inner")
         only_this, only_photo = int((this & ~base).sum()), int((base & ~this).sum())
@@ -217,12 +222,10 @@ def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subs
 
 def inverse_rendering_gain(report: pd.DataFrame, fitted_set: str) -> str:
     """One line: the fitted set's LOOCV accuracy against the best photo-only set's, in points."""
-    scored = report[report["status"] == "ok"]
-    fitted = scored[scored["feature_set"] == fitted_set]
-    photo = scored[scored["photo_only"].astype(bool)]
-    if fitted.empty or photo.empty:
+    fitted = report[(report["status"] == "ok") & (report["feature_set"] == fitted_set)]
+    best = best_photo_only(report)
+    if fitted.empty or best is None:
         return "Inverse rendering against the photo alone: not measured (both need scored feature sets)."
-    best = photo.loc[photo["accuracy"].idxmax()]
     gain = 100.0 * (float(fitted["accuracy"].iloc[0]) - float(best["accuracy"]))
     verb = "bought" if gain > 0 else ("cost" if gain < 0 else "changed nothing:")
     return (f"Inverse rendering {verb} {abs(gain):.1f} points over the photo alone: {fitted_set} "
