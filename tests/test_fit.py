@@ -499,3 +499,29 @@ def test_large_steps_height_map_is_smoother_for_the_same_iterations_and_stays_fi
         assert_all_finite(state, folder)
         curvatures[lambda_] = fitted_relief_curvature(folder)
     assert 0 < curvatures[4.0] < 0.5 * curvatures[0.0]  # the relief moved, and less from texel to texel
+
+
+def test_cavity_factor_darkens_texels_below_their_ring_and_its_shade_is_written(tmp_path):
+    """cavity > 0: the shade written with the fit is the cavity factor of the fitted height map (a dip darkens,
+    a bump brightens, flat is 1), every number finite, and the fitted relief follows the photo's dark-is-deep pattern."""
+    from clothscope.fit.normals import cavity_factor_np
+
+    dip = np.zeros((16, 16))
+    dip[8, 8] = -1.0
+    factor = cavity_factor_np(dip, 2.0)
+    assert factor[8, 8] < 0.3 and factor[0, 0] == 1.0 and cavity_factor_np(-dip, 2.0)[8, 8] > 1.7
+    photo = SYNTHETIC / "canvas" / "canvas_red.png"
+    correlation = {}
+    for strength in (0.0, 2.0):
+        settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=12, joint_iterations=0, cavity=strength)
+        state = run_tiny_fit(photo, tmp_path / str(strength), normals=settings)
+        folder = tmp_path / str(strength) / "fit" / "normals"
+        assert state["status"] == "fitted"
+        assert_all_finite(state, folder)
+        height = read_exr(folder / "height.exr")[..., 0]
+        if strength > 0:
+            assert np.allclose(read_exr(folder / "shade.exr")[..., 0], cavity_factor_np(height, strength), atol=1e-4)
+        target = read_exr(tmp_path / str(strength) / "prepared" / "image.exr")[..., :3]
+        start = initial_height(target, 64, 0.06, 0.3)
+        correlation[strength] = np.corrcoef(start, height.ravel())[0, 1]
+    assert correlation[2.0] > correlation[0.0] + 0.1

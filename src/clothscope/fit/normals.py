@@ -46,6 +46,14 @@ shading instead of flat (:func:`initial_height`): bright high, dark low, the
 dye layout divided out, so what the photo does not constrain starts as the
 photo's own pattern instead of as zero.
 
+With ``cavity > 0`` the base colour is also multiplied by a *cavity* factor
+of the height map, ``2 sigmoid(-cavity * d)``, where ``d`` is how far a texel
+lies below the mean height of a ring :data:`CAVITY_RADIUS` texels around it:
+gaps between yarns are darker than crowns because they see less of the light
+(occlusion, which a normal map cannot render), so dark is deep enters the
+render at first order in the height, under any light, instead of only through
+the tilt. The factor is returned in the shade (``shade.exr``, ``albedo.exr``).
+
 With the ``dye_layout`` colour model (:mod:`.colour`) the base colour is also
 a texture: the fitted colour times the photo's fixed dye layout (times the
 shade, when there is one), written as ``albedo.exr`` too.
@@ -95,6 +103,7 @@ class NormalSettings:
     colour_model: str  # auto, one_colour or dye_layout (clothscope.fit.colour)
     initial_relief: str  # flat, or shading: the height map starts bright-high, dark-low (see initial_height)
     initial_slope: float  # RMS slope of the shading start (tangent of the tilt)
+    cavity: float  # > 0: the base colour is darkened where the height lies below its ring mean (see cavity_factor)
 
 
 #: Logistic latent of a shade of 1 (the shade texture's start and prior centre); s0 = sigmoid(SHADE_LATENT0).
@@ -106,6 +115,33 @@ def neighbour_indices(size: int) -> dict[str, np.ndarray]:
     rows, cols = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
     flat = lambda r, c: (np.clip(r, 0, size - 1) * size + np.clip(c, 0, size - 1)).reshape(-1).astype(np.uint32)  # noqa: E731
     return {"left": flat(rows, cols - 1), "right": flat(rows, cols + 1), "up": flat(rows - 1, cols), "down": flat(rows + 1, cols)}
+
+
+#: Radius (texels) of the ring whose mean height a texel's depth is measured from (the cavity factor).
+CAVITY_RADIUS = 3
+
+
+def ring_indices(size: int, radius: int) -> list[np.ndarray]:
+    """Flat indices of the eight texels ``radius`` away along the axes and diagonals (clamped at the border)."""
+    rows, cols = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
+    diagonal = max(int(round(radius / np.sqrt(2))), 1)
+    offsets = [(0, radius), (0, -radius), (radius, 0), (-radius, 0),
+               (diagonal, diagonal), (diagonal, -diagonal), (-diagonal, diagonal), (-diagonal, -diagonal)]
+    return [(np.clip(rows + dy, 0, size - 1) * size + np.clip(cols + dx, 0, size - 1)).reshape(-1).astype(np.uint32)
+            for dy, dx in offsets]
+
+
+def cavity_factor(mi: ModuleType, height: Any, ring: list[Any], strength: float) -> Any:
+    """Differentiable per-texel factor ``2 sigmoid(-strength * d)`` in (0, 2), ``d`` = ring mean height minus the height."""
+    ring_mean = sum(dr.gather(mi.Float, height, index) for index in ring) / len(ring)
+    return 2.0 * sigmoid(-strength * (ring_mean - height))
+
+
+def cavity_factor_np(height: np.ndarray, strength: float) -> np.ndarray:
+    """:func:`cavity_factor` of a (T, T) height map, numpy version."""
+    flat = height.reshape(-1)
+    ring_mean = np.mean([flat[index] for index in ring_indices(height.shape[0], CAVITY_RADIUS)], axis=0)
+    return (2.0 * expit(-strength * (ring_mean - flat))).reshape(height.shape)
 
 
 def height_to_normals_np(height: np.ndarray) -> np.ndarray:
@@ -167,12 +203,14 @@ def shade_of(mi: ModuleType, latent: Any) -> Any:
 
 
 def albedo_texture(mi: ModuleType, color_latent: Any, size: int, shade_latent: Any = None,
-                   layout: tuple[Any, Any, Any] | None = None) -> Any:
-    """Differentiable (size, size, 3) base-colour texture: the material colour times the shade and the dye layout."""
+                   layout: tuple[Any, Any, Any] | None = None, cavity: Any = None) -> Any:
+    """Differentiable (size, size, 3) base-colour texture: the material colour times the shade, the cavity factor and the dye layout."""
     color = [sigmoid(dr.gather(mi.Float, color_latent, i)) for i in range(3)]
     if shade_latent is not None:
         shade = shade_of(mi, shade_latent)
         color = [c * shade for c in color]
+    if cavity is not None:
+        color = [c * cavity for c in color]
     if layout is not None:
         color = [c * ratio for c, ratio in zip(color, layout)]
     return mi.TensorXf(dr.ravel(mi.Color3f(*color)), shape=(size, size, 3))  # a shade or a layout makes it per texel
@@ -187,13 +225,15 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     size = settings.texture
     shaded = settings.albedo_weight > 0
     layout_np = None if colour is None else colour.layout
-    textured = shaded or layout_np is not None
+    cavity = settings.cavity > 0
+    textured = shaded or layout_np is not None or cavity
     layout = None if layout_np is None else tuple(mi.Float(layout_np[..., c].ravel()) for c in range(3))
     scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), settings.sampler,
                         normal_texture=flat_normal_texture(size), sample_border=plan.projective,
                         albedo_texture=shaded_texture(fit.material, np.ones((size, size)), layout_np) if textured else None)
     params = mi.traverse(scene)
     neighbours = {k: mi.UInt32(v) for k, v in neighbour_indices(size).items()}
+    ring = [mi.UInt32(index) for index in ring_indices(size, CAVITY_RADIUS)] if cavity else []
     fixed = material_latents(fit.material, settings.min_roughness)
     fixed_arrays = {k: mi.Float(v) for k, v in fixed.items()}  # device copies made once, used while the BSDF is held
     steps = HeightSteps(size, settings.large_steps_lambda) if settings.large_steps_lambda > 0 else None
@@ -204,7 +244,8 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
         latents = {k: opt[k] if k in opt else fixed_arrays[k] for k in fixed}
         apply_material(mi, params, latents, settings.min_roughness, textured=textured)
         if textured:
-            params[BSDF_KEYS["albedo"]] = albedo_texture(mi, latents["color"], size, opt["shade"] if shaded else None, layout)
+            params[BSDF_KEYS["albedo"]] = albedo_texture(mi, latents["color"], size, opt["shade"] if shaded else None, layout,
+                                                         cavity_factor(mi, height, ring, settings.cavity) if cavity else None)
         params.update()
         loss = image_loss(mi, render(mi, scene, params, settings.spp, it, settings.spp_grad), target)
         if settings.smoothness > 0:
@@ -225,7 +266,7 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     heights = lambda latents: np.asarray(latents["height"] if steps is None else steps.solve(latents["height"]),  # noqa: E731
                                          dtype=np.float64).reshape(size, size)
     if settings.joint_iterations == 0:  # BSDF kept from the material stage
-        return heights(first.best), fit.material, [first], _shade(first.best, size)
+        return heights(first.best), fit.material, [first], _shade(first.best, size, heights(first.best), settings.cavity)
     # the joint phase runs all its iterations and keeps the last iterate: its noisy loss flattens long before the
     # roughness stops drifting, and the lowest noisy loss would favour rough lobes (see clothscope.fit.loop)
     second = optimise(mi, joint_start, loss_fn, LoopSettings(settings.joint_iterations, settings.joint_learning_rate,
@@ -234,11 +275,14 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
                      log, "normals+bsdf")
     best = second.best if second.best_loss <= first.best_loss else joint_start
     material = material_from_latents({k: best[k] for k in fixed}, settings.min_roughness)
-    return heights(best), material, [first, second], _shade(best, size)
+    return heights(best), material, [first, second], _shade(best, size, heights(best), settings.cavity)
 
 
-def _shade(latents: dict[str, np.ndarray], size: int) -> np.ndarray | None:
-    """The fitted (size, size) shade texture, or None without one."""
-    if "shade" not in latents:
-        return None
-    return (expit(latents["shade"].astype(np.float64)) / expit(SHADE_LATENT0)).reshape(size, size)
+def _shade(latents: dict[str, np.ndarray], size: int, height: np.ndarray, cavity: float) -> np.ndarray | None:
+    """The fitted (size, size) multiplier of the material colour (shade times cavity factor), or None without one."""
+    shade = None
+    if "shade" in latents:
+        shade = (expit(latents["shade"].astype(np.float64)) / expit(SHADE_LATENT0)).reshape(size, size)
+    if cavity > 0:
+        shade = cavity_factor_np(height, cavity) * (1.0 if shade is None else shade)
+    return shade
