@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from clothscope.fit import jobs
 from clothscope.fit.effects import Evidence, geometry_evidence, plan_stage
 from clothscope.fit.loop import LoopSettings, optimise
 from clothscope.fit.model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
-from clothscope.fit.normals import NormalSettings, height_to_normals_np, initial_height
+from clothscope.fit.normals import NormalSettings, cavity_factor_np, height_to_normals_np, initial_height
 from clothscope.prepare.image import prepare_image
 
 LOG = logging.getLogger("test_fit")
@@ -423,30 +424,30 @@ def fitted_relief_curvature(normals_dir) -> float:
     return float(np.mean(lap**2))
 
 
+def tiny_relief_fit(case_dir, **normals) -> tuple[dict, Path]:
+    """A tiny fit of ``canvas_red`` (12 height-map iterations, no joint phase unless overridden) with these
+    ``fit.normals`` settings, checked fitted and finite; returns the state and the normals folder."""
+    tiny = dict(resolution=64, spp=2, texture=64, iterations=12, joint_iterations=0)
+    state = run_tiny_fit(SYNTHETIC / "canvas" / "canvas_red.png", case_dir, normals=config_settings("fit.normals", **(tiny | normals)))
+    folder = case_dir / "fit" / "normals"
+    assert state["status"] == "fitted"
+    assert_all_finite(state, folder)
+    return state, folder
+
+
 def test_smoothness_prior_lowers_the_fitted_relief_curvature(tmp_path):
     """smoothness > 0: the same tiny fit ends with a height map of lower mean squared Laplacian, and stays finite."""
-    photo = SYNTHETIC / "canvas" / "canvas_red.png"
-    curvatures = {}
-    for weight in (0.0, 0.01):
-        settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=12, joint_iterations=0, smoothness=weight)
-        state = run_tiny_fit(photo, tmp_path / str(weight), normals=settings)
-        folder = tmp_path / str(weight) / "fit" / "normals"
-        assert state["status"] == "fitted"
-        assert_all_finite(state, folder)
-        curvatures[weight] = fitted_relief_curvature(folder)
+    curvatures = {weight: fitted_relief_curvature(tiny_relief_fit(tmp_path / str(weight), smoothness=weight)[1])
+                  for weight in (0.0, 0.01)}
     assert curvatures[0.01] < 0.5 * curvatures[0.0]
 
 
 def test_shading_start_puts_the_photo_pattern_into_the_height_map_the_fit_starts_from(tmp_path):
     """initial_relief = shading: with no iterations the fitted relief is the start, the photo's high-passed shading."""
-    photo = SYNTHETIC / "canvas" / "canvas_red.png"
     reliefs = {}
     for start in ("flat", "shading"):
-        settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=0, joint_iterations=0, initial_relief=start)
-        state = run_tiny_fit(photo, tmp_path / start, normals=settings)
-        folder = tmp_path / start / "fit" / "normals"
-        assert state["status"] == "fitted" and state["settings"]["initial_relief"] == start
-        assert_all_finite(state, folder)
+        state, folder = tiny_relief_fit(tmp_path / start, iterations=0, initial_relief=start)
+        assert state["settings"]["initial_relief"] == start
         reliefs[start] = read_exr(folder / "height.exr")[..., 0]
     assert np.all(reliefs["flat"] == 0.0)
     target = read_exr(tmp_path / "shading" / "prepared" / "image.exr")[..., :3]
@@ -504,23 +505,17 @@ def test_large_steps_height_map_is_smoother_for_the_same_iterations_and_stays_fi
 def test_cavity_factor_darkens_texels_below_their_ring_and_its_shade_is_written(tmp_path):
     """cavity > 0: the shade written with the fit is the cavity factor of the fitted height map (a dip darkens,
     a bump brightens, flat is 1), every number finite, and the fitted relief follows the photo's dark-is-deep pattern."""
-    from clothscope.fit.normals import cavity_factor_np
-
     dip = np.zeros((16, 16))
     dip[8, 8] = -1.0
     factor = cavity_factor_np(dip, 2.0)
     assert factor[8, 8] < 0.3 and factor[0, 0] == 1.0 and cavity_factor_np(-dip, 2.0)[8, 8] > 1.7
-    photo = SYNTHETIC / "canvas" / "canvas_red.png"
     correlation = {}
     for strength in (0.0, 2.0):
-        settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=12, joint_iterations=0, cavity=strength)
-        state = run_tiny_fit(photo, tmp_path / str(strength), normals=settings)
-        folder = tmp_path / str(strength) / "fit" / "normals"
-        assert state["status"] == "fitted"
-        assert_all_finite(state, folder)
+        folder = tiny_relief_fit(tmp_path / str(strength), cavity=strength)[1]
         height = read_exr(folder / "height.exr")[..., 0]
         if strength > 0:
             assert np.allclose(read_exr(folder / "shade.exr")[..., 0], cavity_factor_np(height, strength), atol=1e-4)
+            assert (folder / "albedo.exr").is_file()  # the re-render and scene.xml read the darkened colour
         target = read_exr(tmp_path / str(strength) / "prepared" / "image.exr")[..., :3]
         start = initial_height(target, 64, 0.06, 0.3)
         correlation[strength] = np.corrcoef(start, height.ravel())[0, 1]
