@@ -110,11 +110,16 @@ class NormalSettings:
 SHADE_LATENT0 = 2.0
 
 
+def offset_indices(size: int, dy: int, dx: int) -> np.ndarray:
+    """Flat indices of the texel ``(dy, dx)`` away from each texel of a (size, size) grid (clamped at the border)."""
+    rows, cols = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
+    return (np.clip(rows + dy, 0, size - 1) * size + np.clip(cols + dx, 0, size - 1)).reshape(-1).astype(np.uint32)
+
+
 def neighbour_indices(size: int) -> dict[str, np.ndarray]:
     """Flat indices of each texel's left/right/up/down neighbour (clamped at the border)."""
-    rows, cols = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
-    flat = lambda r, c: (np.clip(r, 0, size - 1) * size + np.clip(c, 0, size - 1)).reshape(-1).astype(np.uint32)  # noqa: E731
-    return {"left": flat(rows, cols - 1), "right": flat(rows, cols + 1), "up": flat(rows - 1, cols), "down": flat(rows + 1, cols)}
+    return {"left": offset_indices(size, 0, -1), "right": offset_indices(size, 0, 1),
+            "up": offset_indices(size, -1, 0), "down": offset_indices(size, 1, 0)}
 
 
 #: Radius (texels) of the ring whose mean height a texel's depth is measured from (the cavity factor).
@@ -123,12 +128,10 @@ CAVITY_RADIUS = 3
 
 def ring_indices(size: int, radius: int) -> list[np.ndarray]:
     """Flat indices of the eight texels ``radius`` away along the axes and diagonals (clamped at the border)."""
-    rows, cols = np.meshgrid(np.arange(size), np.arange(size), indexing="ij")
     diagonal = max(int(round(radius / np.sqrt(2))), 1)
     offsets = [(0, radius), (0, -radius), (radius, 0), (-radius, 0),
                (diagonal, diagonal), (diagonal, -diagonal), (-diagonal, diagonal), (-diagonal, -diagonal)]
-    return [(np.clip(rows + dy, 0, size - 1) * size + np.clip(cols + dx, 0, size - 1)).reshape(-1).astype(np.uint32)
-            for dy, dx in offsets]
+    return [offset_indices(size, dy, dx) for dy, dx in offsets]
 
 
 def cavity_factor(mi: ModuleType, height: Any, ring: list[Any], strength: float) -> Any:
@@ -213,7 +216,7 @@ def albedo_texture(mi: ModuleType, color_latent: Any, size: int, shade_latent: A
         color = [c * cavity for c in color]
     if layout is not None:
         color = [c * ratio for c, ratio in zip(color, layout)]
-    return mi.TensorXf(dr.ravel(mi.Color3f(*color)), shape=(size, size, 3))  # a shade or a layout makes it per texel
+    return mi.TensorXf(dr.ravel(mi.Color3f(*color)), shape=(size, size, 3))  # a shade, cavity or layout makes it per texel
 
 
 def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: NormalSettings,
@@ -266,7 +269,8 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     heights = lambda latents: np.asarray(latents["height"] if steps is None else steps.solve(latents["height"]),  # noqa: E731
                                          dtype=np.float64).reshape(size, size)
     if settings.joint_iterations == 0:  # BSDF kept from the material stage
-        return heights(first.best), fit.material, [first], _shade(first.best, size, heights(first.best), settings.cavity)
+        height = heights(first.best)
+        return height, fit.material, [first], _shade(first.best, size, height, settings.cavity)
     # the joint phase runs all its iterations and keeps the last iterate: its noisy loss flattens long before the
     # roughness stops drifting, and the lowest noisy loss would favour rough lobes (see clothscope.fit.loop)
     second = optimise(mi, joint_start, loss_fn, LoopSettings(settings.joint_iterations, settings.joint_learning_rate,
@@ -275,7 +279,8 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
                      log, "normals+bsdf")
     best = second.best if second.best_loss <= first.best_loss else joint_start
     material = material_from_latents({k: best[k] for k in fixed}, settings.min_roughness)
-    return heights(best), material, [first, second], _shade(best, size, heights(best), settings.cavity)
+    height = heights(best)
+    return height, material, [first, second], _shade(best, size, height, settings.cavity)
 
 
 def _shade(latents: dict[str, np.ndarray], size: int, height: np.ndarray, cavity: float) -> np.ndarray | None:
