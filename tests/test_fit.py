@@ -336,6 +336,49 @@ def test_shadows_are_missing_only_from_the_unshadowed_integrator(mi):
     assert unshadowed.mean() > 1.05 * direct.mean()
 
 
+def height_gradient(mi, fit: FitScene, height: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Derivative of the squared error between a 32 px render of ``fit`` with relief ``height`` and ``target``."""
+    import drjit as dr
+
+    from clothscope.fit.normals import neighbour_indices, normal_texture
+
+    size = height.shape[0]
+    scene = build_scene(mi, fit, 32, {"type": "direct_unshadowed"}, "independent")
+    params = mi.traverse(scene)
+    latent = mi.Float(height.ravel())
+    dr.enable_grad(latent)
+    neighbours = {k: mi.UInt32(v) for k, v in neighbour_indices(size).items()}
+    params[BSDF_KEYS["normalmap"]] = normal_texture(mi, latent, neighbours, size)
+    params.update()
+    image = mi.render(scene, params, spp=4, seed=3, seed_grad=4)
+    dr.backward(dr.mean(dr.square(image - mi.TensorXf(target)), axis=None))
+    return np.array(dr.grad(latent))
+
+
+def test_unshadowed_backward_pass_gives_mitsubas_gradient_without_rendering_the_image_first(mi, monkeypatch):
+    from clothscope.fit import integrator
+
+    rng = np.random.default_rng(0)
+    fit = FitScene(FitCamera(), PointLight(35.0, 60.0), folded_grid(0.03), 0.06, Material((0.6, 0.3, 0.2), 0.5, 0.3))
+    height = rng.normal(scale=0.5, size=(16, 16)).astype(np.float32)
+    target = rng.uniform(0.0, 0.3, size=(32, 32, 3)).astype(np.float32)
+    direct = height_gradient(mi, fit, height, target)
+    monkeypatch.setattr(integrator, "splats_one_pixel_per_sample", lambda film: False)  # Mitsuba's render_backward
+    through_the_film = height_gradient(mi, fit, height, target)
+    assert np.all(np.isfinite(direct)) and np.abs(through_the_film).max() > 0
+    assert np.allclose(direct, through_the_film, rtol=1e-4, atol=1e-6 * np.abs(through_the_film).max())
+
+
+def test_only_a_box_filter_without_border_samples_takes_the_direct_backward_pass(mi):
+    from clothscope.fit.integrator import splats_one_pixel_per_sample
+
+    film = lambda rfilter, border: mi.load_dict({"type": "hdrfilm", "width": 8, "height": 8,  # noqa: E731
+                                                 "rfilter": {"type": rfilter}, "sample_border": border})
+    assert splats_one_pixel_per_sample(film("box", False))
+    assert not splats_one_pixel_per_sample(film("box", True))
+    assert not splats_one_pixel_per_sample(film("gaussian", False))
+
+
 def render_noise(mi, scene, spp: int) -> float:
     """Root mean square noise of one render at ``spp``, from two renders with different seeds."""
     a, b = (np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64) for seed in (11, 12))
