@@ -331,6 +331,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Fit time per image, kernel cache cold and warm", ("bench/fit_timing/fit_timing.md",),
                         f"{py}/fit_timing.py"),
         BenchmarkReport("Where a fit job's seconds go", ("bench/job_costs.md",), f"{py}/job_costs.py"),
+        BenchmarkReport("The normal-map step: backward pass and freezing", ("bench/backward_pass.md",),
+                        f"{py}/backward_pass.py"),
         BenchmarkReport("A rerun from scratch against the run", ("bench/rerun_identity.md",), f"{py}/rerun_identity.py"),
         BenchmarkReport("Scaling with cores and resolution", ("bench/scaling/scaling.md",), f"{py}/scaling.py"),
         BenchmarkReport("The `paper` preset's projected time", ("reports/paper_projection.md",), f"{py}/paper_projection.py"),

@@ -1,0 +1,180 @@
+"""Benchmark: the normal-map stage's iteration with Mitsuba's backward pass, with ours, and frozen (``dr.freeze``).
+
+    .venv/bin/python workflow/benchmarks/backward_pass.py [--run results] [--images SUBSET] [--iterations 60]
+
+For each image it builds the normal-map stage's scene from the run's material
+stage (``<run>/fit/<image>/material``) and prepared photo, and runs the stage's
+step (normal texture of the height map, render, image loss, backward pass,
+Adam step) from a flat height map, three ways, one after the other per image:
+
+- ``mitsuba``: Mitsuba's ``ADIntegrator.render_backward``, which renders the
+  image into a block before it propagates the image's adjoint;
+- ``direct``: :class:`clothscope.fit.integrator` hands each sample its pixel's
+  adjoint (what the fit runs);
+- ``direct, frozen``: the same step recorded once by ``dr.freeze`` and replayed
+  (the render and its backward pass called directly, since ``mi.render`` reads
+  its seeds on the host, which a recording cannot do).
+
+It reports the milliseconds per step after ``--warm-up`` steps (alone on
+``--threads`` threads: run it on an otherwise idle machine), the largest
+difference between the first step's gradients of ``mitsuba`` and ``direct``
+(same seeds) relative to the largest gradient, and the largest difference of
+the height maps after the last step. Writes ``results/bench/backward_pass.{csv,md}``.
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import multiprocessing
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from harness import ROOT, SUBSET, publish, validated_config
+
+VARIANTS = ("mitsuba", "direct", "direct, frozen")
+
+
+def stage_scene(mi: Any, run: Path, image: str, resolution: int, texture: int) -> tuple[Any, Any]:
+    """The normal-map stage's scene (flat normal map) of ``image`` and its photo at ``resolution``."""
+    from clothscope.fit.effects import geometry_evidence, plan_stage
+    from clothscope.fit.model import build_scene, flat_normal_texture
+    from clothscope.fit.outputs import load_state
+    from clothscope.fit.target import at_resolution, load_prepared
+
+    fit, _ = load_state(run / "fit" / image / "material")
+    plan = plan_stage("normals", geometry_evidence(fit.grid, fit.camera, fit.light))
+    if plan.integrator != "direct_unshadowed":
+        raise ValueError(f"{image}: the normal-map stage plans {plan.integrator}, not direct_unshadowed")
+    scene = build_scene(mi, fit, resolution, plan.integrator_dict(), "multijitter", normal_texture=flat_normal_texture(texture))
+    return scene, at_resolution(load_prepared(run / "prepared" / image), resolution)
+
+
+def step_function(mi: Any, scene: Any, target: Any, texture: int, spp: int, spp_grad: int, frozen: bool) -> Callable:
+    """``step(height, seed) -> loss``: the stage's render, loss and backward pass (gradient left on ``height``)."""
+    import drjit as dr
+
+    from clothscope.fit.loop import render
+    from clothscope.fit.model import BSDF_KEYS
+    from clothscope.fit.normals import neighbour_indices, normal_texture
+    from clothscope.fit.target import image_loss
+
+    neighbours = {k: mi.UInt32(v) for k, v in neighbour_indices(texture).items()}
+    params = mi.traverse(scene)
+    if not frozen:
+        def step(height, seed):
+            params[BSDF_KEYS["normalmap"]] = normal_texture(mi, height, neighbours, texture)
+            params.update()
+            loss = image_loss(mi, render(mi, scene, params, spp, seed, spp_grad), target)
+            dr.backward(loss)
+            return loss
+        return step
+
+    integrator, sensor = scene.integrator(), scene.sensors()[0]
+
+    @dr.freeze
+    def frozen_step(height, seed):
+        params[BSDF_KEYS["normalmap"]] = normal_texture(mi, height, neighbours, texture)
+        params.update()
+        with dr.suspend_grad():
+            image = integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=False)
+        image = dr.detach(image)
+        dr.enable_grad(image)
+        loss = image_loss(mi, image, target)
+        dr.backward(loss)
+        integrator.render_backward(scene, params, dr.grad(image), sensor, seed=seed + 100_003, spp=spp_grad)
+        return loss
+
+    return lambda height, seed: frozen_step(height, mi.UInt32(seed))
+
+
+def descend(mi: Any, step: Callable, texture: int, iterations: int, warm_up: int, learning_rate: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """Run ``iterations`` Adam steps from a flat map: ms per step after ``warm_up``, first gradient, last heights."""
+    import drjit as dr
+
+    opt = mi.ad.Adam(lr=learning_rate, params={"height": mi.Float(np.zeros(texture * texture, dtype=np.float32))})
+    first_gradient = None
+    for it in range(iterations):
+        if it == warm_up:
+            dr.sync_thread()
+            started = time.perf_counter()
+        loss = step(opt["height"], it)
+        float(loss.array[0])  # the loop reads every loss (plateau rule, restarts)
+        if first_gradient is None:
+            first_gradient = np.array(dr.grad(opt["height"]))
+        opt.step()
+    dr.eval(opt["height"])
+    dr.sync_thread()
+    return 1000 * (time.perf_counter() - started) / (iterations - warm_up), first_gradient, np.array(opt["height"])
+
+
+def measure_image(run: Path, image: str, iterations: int, warm_up: int, threads: int) -> list[dict[str, Any]]:
+    """One row per variant for ``image`` (run in a process of its own: see :func:`measure`)."""
+    from clothscope.core.runtime import mitsuba_for
+    from clothscope.fit import integrator
+
+    settings = validated_config()["fit"]["normals"]
+    mi = mitsuba_for("llvm_ad_rgb", threads)
+    direct_backward = integrator.splats_one_pixel_per_sample
+    scene, target = stage_scene(mi, run, image, settings["resolution"], settings["texture"])
+    results = {}
+    for variant in VARIANTS:
+        integrator.splats_one_pixel_per_sample = (lambda film: False) if variant == "mitsuba" else direct_backward
+        step = step_function(mi, scene, target, settings["texture"], settings["spp"], settings["spp_grad"],
+                             frozen=variant.endswith("frozen"))
+        results[variant] = descend(mi, step, settings["texture"], iterations, warm_up, settings["learning_rate"])
+    reference_gradient, reference_height = results["mitsuba"][1], results["mitsuba"][2]
+    scale = float(np.abs(reference_gradient).max()) or 1.0
+    return [{"image_id": image, "variant": variant, "ms_per_step": ms,
+             "first_gradient_difference": float(np.abs(gradient - reference_gradient).max()) / scale,
+             "height_difference": float(np.abs(height - reference_height).max())}
+            for variant, (ms, gradient, height) in results.items()]
+
+
+def measure(run: Path, images: list[str], iterations: int, warm_up: int, threads: int) -> pd.DataFrame:
+    """One row per image and variant; each image in a fresh process (a second scene's frozen recording crashed Dr.Jit 1.5)."""
+    rows = []
+    for image in images:
+        with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
+            image_rows = pool.submit(measure_image, run, image, iterations, warm_up, threads).result()
+        rows += image_rows
+        logging.info("%s: %s", image, ", ".join(f"{r['variant']} {r['ms_per_step']:.1f} ms" for r in image_rows))
+    return pd.DataFrame(rows)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--run", type=Path, default=ROOT / "results", help="a finished run (material stage and prepared photos)")
+    parser.add_argument("--images", default=SUBSET, help="comma-separated image ids (default: one per class)")
+    parser.add_argument("--iterations", type=int, default=60)
+    parser.add_argument("--warm-up", type=int, default=10)
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
+    args = parser.parse_args()
+    if not 0 <= args.warm_up < args.iterations:
+        raise SystemExit(f"--warm-up must lie in [0, --iterations), got {args.warm_up} and {args.iterations}")
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    table = measure(args.run, [i for i in args.images.split(",") if i], args.iterations, args.warm_up, args.threads)
+    summary = table.groupby("variant", sort=False).agg(
+        images=("image_id", "count"), median_ms_per_step=("ms_per_step", "median"),
+        max_first_gradient_difference=("first_gradient_difference", "max"), max_height_difference=("height_difference", "max"))
+    base = summary.loc["mitsuba", "median_ms_per_step"]
+    summary["time against mitsuba"] = summary["median_ms_per_step"] / base
+    config = validated_config()["fit"]["normals"]
+    lines = [f"The normal-map stage's step ({config['resolution']} px, {config['spp']} + {config['spp_grad']} spp, "
+             f"{config['texture']} texels) from a flat height map, {args.iterations} steps of which the last "
+             f"{args.iterations - args.warm_up} are timed, alone on {args.threads} threads, each image in a process of its own; the three "
+             "variants run one after the other per image.", "",
+             summary.reset_index().to_markdown(index=False, floatfmt=".3g"), "",
+             "Gradient difference: the largest difference of the first step's gradient from `mitsuba`'s (same seeds), "
+             "over `mitsuba`'s largest gradient. Height difference: the largest difference of the height map after the "
+             "last step from `mitsuba`'s, in texel widths."]
+    publish(args.out, "backward_pass", table, "\n".join(lines) + "\n", float_format="%.4g")
+
+
+if __name__ == "__main__":
+    main()
