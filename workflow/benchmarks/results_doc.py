@@ -1,12 +1,15 @@
 """Write ``docs/results.md``: the measured figures of the workflow and the benchmarks, read from their output files.
 
-    .venv/bin/python workflow/benchmarks/results_doc.py [--results results] [--out docs/results.md]
+    .venv/bin/python workflow/benchmarks/results_doc.py [--results results] [--out docs/results.md] [--keep-earlier]
 
 Every section names the file its figures come from and the date that file was
 written; where the file does not exist the section says ``not measured: run
 <command>`` instead. Nothing is measured here: figures are copied from the
 reports, and the only arithmetic is the median and maximum of Snakemake's
 per-job benchmark files. Relative paths are taken from the repository root.
+With ``--keep-earlier`` a section whose file is missing on this machine keeps
+the measured text of the page being replaced (its source line names the file
+and the date it was written), so one new benchmark does not erase the others.
 """
 from __future__ import annotations
 
@@ -353,13 +356,14 @@ def workflow_reports(results: Path) -> list[tuple[str, list[Path], str]]:
     ]
 
 
-def results_page(results: Path) -> str:
-    """The whole of ``docs/results.md``."""
+def page_sections(results: Path) -> list[str]:
+    """The page's header and its sections, each starting with its ``## `` title."""
     runs = workflow_runs(results)
     header = ("# Measured results\n\n"
               f"Written by `{THIS_COMMAND}` from the files under `{shown(results)}/`; do not edit by hand. Each section "
               "names its files and the date they were written: figures from different dates may come from different "
-              "versions of the code. A section whose file is missing says how to make it. The images are synthetic "
+              "versions of the code. A section whose file is missing says how to make it (or, written with `--keep-earlier`, "
+              "keeps the text of the page it replaced, whose source line dates it). The images are synthetic "
               "(`data/synthetic/`, README \"The embedded synthetic dataset\"), far easier than real photos: the "
               "figures check the pipeline, not the method.")
     sections = [header, runs_section(runs), classifier_section(runs), feature_sets_section(runs),
@@ -367,8 +371,31 @@ def results_page(results: Path) -> str:
     sections += [embedded_section(title, paths, command) for title, paths, command in workflow_reports(results)]
     sections += [embedded_section(report.title, [results / path for path in report.candidates], report.command)
                  for report in benchmark_reports(results)]
+    return sections
+
+
+def earlier_sections(page: str) -> dict[str, str]:
+    """Title -> section text of a page this script wrote (its ``## `` sections)."""
+    parts = ("\n" + page).split("\n## ")[1:]
+    return {part.splitlines()[0]: "## " + part.rstrip() for part in parts}
+
+
+def keep_earlier(sections: list[str], earlier: dict[str, str]) -> list[str]:
+    """``sections`` with each whole-section ``not measured`` replaced by the earlier page's measured text of that title."""
+    def unmeasured(section: str) -> bool:
+        return section.partition("\n\n")[2].startswith("not measured")
+
+    kept = []
+    for section in sections:
+        previous = earlier.get(section.splitlines()[0][3:], "")
+        kept.append(previous if unmeasured(section) and previous and not unmeasured(previous) else section)
+    return kept
+
+
+def results_page(sections: list[str]) -> str:
+    """The whole of ``docs/results.md`` from its header and sections, with a table of contents."""
     contents = "\n".join(f"- {section.splitlines()[0][3:]}" for section in sections[1:])
-    return "\n\n".join([header, "Contents:\n\n" + contents, *sections[1:]]) + "\n"
+    return "\n\n".join([sections[0], "Contents:\n\n" + contents, *sections[1:]]) + "\n"
 
 
 def main() -> None:
@@ -377,9 +404,15 @@ def main() -> None:
     parser.add_argument("--results", default=schema_defaults()["results"],
                         help="results folder of the design run (default: the config schema's results)")
     parser.add_argument("--out", default="docs/results.md", help="page to write (default: docs/results.md)")
+    parser.add_argument("--keep-earlier", action="store_true",
+                        help="where a section's file is missing here, keep that section as the page being replaced has it "
+                             "(its source line still names the file and the date it was written)")
     args = parser.parse_args()
     results, out = ROOT / args.results, ROOT / args.out
-    write_text(out, results_page(results))
+    sections = page_sections(results)
+    if args.keep_earlier and out.exists():
+        sections = keep_earlier(sections, earlier_sections(out.read_text(encoding="utf-8")))
+    write_text(out, results_page(sections))
     print(f"wrote {shown(out)}")
 
 
