@@ -1,6 +1,6 @@
 """Benchmark: the normal-map stage's iteration with Mitsuba's backward pass, with ours, and frozen (``dr.freeze``).
 
-    .venv/bin/python workflow/benchmarks/backward_pass.py [--run results] [--images SUBSET] [--iterations 60]
+    .venv/bin/python workflow/benchmarks/backward_pass.py [--run results] [--images SUBSET] [--steps 60]
 
 For each image it builds the normal-map stage's scene from the run's material
 stage (``<run>/fit/<image>/material``) and prepared photo, and runs the stage's
@@ -150,15 +150,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--run", type=Path, default=ROOT / "results", help="a finished run (material stage and prepared photos)")
     parser.add_argument("--images", default=SUBSET, help="comma-separated image ids (default: one per class)")
-    parser.add_argument("--iterations", type=int, default=60)
+    parser.add_argument("--steps", type=int, default=60, help="Adam steps per variant and image")
     parser.add_argument("--warm-up", type=int, default=10)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     args = parser.parse_args()
-    if not 0 <= args.warm_up < args.iterations:
-        raise SystemExit(f"--warm-up must lie in [0, --iterations), got {args.warm_up} and {args.iterations}")
+    if not 0 <= args.warm_up < args.steps:
+        raise SystemExit(f"--warm-up must lie in [0, --steps), got {args.warm_up} and {args.steps}")
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    table = measure(args.run, [i for i in args.images.split(",") if i], args.iterations, args.warm_up, args.threads)
+    table = measure(args.run, [i for i in args.images.split(",") if i], args.steps, args.warm_up, args.threads)
     summary = table.groupby("variant", sort=False).agg(
         images=("image_id", "count"), median_ms_per_step=("ms_per_step", "median"),
         max_first_gradient_difference=("first_gradient_difference", "max"), max_height_difference=("height_difference", "max"))
@@ -166,8 +166,8 @@ def main() -> None:
     summary["time against mitsuba"] = summary["median_ms_per_step"] / base
     config = validated_config()["fit"]["normals"]
     lines = [f"The normal-map stage's step ({config['resolution']} px, {config['spp']} + {config['spp_grad']} spp, "
-             f"{config['texture']} texels) from a flat height map, {args.iterations} steps of which the last "
-             f"{args.iterations - args.warm_up} are timed, alone on {args.threads} threads, each image in a process of its own; the three "
+             f"{config['texture']} texels) from a flat height map, {args.steps} steps of which the last "
+             f"{args.steps - args.warm_up} are timed, alone on {args.threads} threads, each image in a process of its own; the three "
              "variants run one after the other per image.", "",
              summary.reset_index().to_markdown(index=False, floatfmt=".3g"), "",
              "Gradient difference: the largest difference of the first step's gradient from `mitsuba`'s (same seeds), "
