@@ -39,8 +39,8 @@ from harness import ROOT, SUBSET, publish, validated_config
 VARIANTS = ("mitsuba", "direct", "direct, frozen")
 
 
-def stage_scene(mi: Any, run: Path, image: str, resolution: int, texture: int) -> tuple[Any, Any]:
-    """The normal-map stage's scene (flat normal map) of ``image`` and its photo at ``resolution``."""
+def stage_scene(mi: Any, run: Path, image: str, resolution: int, texture: int, sampler: str) -> tuple[Any, Any]:
+    """The normal-map stage's scene (flat normal map, the stage's ``sampler``) of ``image`` and its photo at ``resolution``."""
     from clothscope.fit.effects import geometry_evidence, plan_stage
     from clothscope.fit.model import build_scene, flat_normal_texture
     from clothscope.fit.outputs import load_state
@@ -50,7 +50,7 @@ def stage_scene(mi: Any, run: Path, image: str, resolution: int, texture: int) -
     plan = plan_stage("normals", geometry_evidence(fit.grid, fit.camera, fit.light))
     if plan.integrator != "direct_unshadowed":
         raise ValueError(f"{image}: the normal-map stage plans {plan.integrator}, not direct_unshadowed")
-    scene = build_scene(mi, fit, resolution, plan.integrator_dict(), "multijitter", normal_texture=flat_normal_texture(texture))
+    scene = build_scene(mi, fit, resolution, plan.integrator_dict(), sampler, normal_texture=flat_normal_texture(texture))
     return scene, at_resolution(load_prepared(run / "prepared" / image), resolution)
 
 
@@ -120,7 +120,7 @@ def measure_image(run: Path, image: str, iterations: int, warm_up: int, threads:
     settings = validated_config()["fit"]["normals"]
     mi = mitsuba_for("llvm_ad_rgb", threads)
     direct_backward = integrator.splats_one_pixel_per_sample
-    scene, target = stage_scene(mi, run, image, settings["resolution"], settings["texture"])
+    scene, target = stage_scene(mi, run, image, settings["resolution"], settings["texture"], settings["sampler"])
     results = {}
     for variant in VARIANTS:
         integrator.splats_one_pixel_per_sample = (lambda film: False) if variant == "mitsuba" else direct_backward
