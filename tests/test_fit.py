@@ -119,10 +119,10 @@ def test_shade_texture_takes_the_holes_of_an_open_weave_and_stays_in_range(tmp_p
     albedo = read_exr(folder / "albedo.exr")
     assert albedo.shape == (64, 64, 3) and np.all(np.isfinite(rendered))
     assert np.allclose(albedo[..., 0], shade * state["material"]["base_color"][0], atol=1e-4)
-    features = shade_features(shade.astype(np.float64), StructureSettings(0.1, 10.0, 0.3))
+    features = shade_features(shade.astype(np.float64), StructureSettings(0.1, 10.0, 0.3, "pixels"))
     assert all(math.isfinite(v) for v in features.values()) and any(v != 0.0 for v in features.values())
     # without a shade texture the shade columns are zero
-    assert set(shade_features(None, StructureSettings(0.1, 10.0, 0.3)).values()) == {0.0}
+    assert set(shade_features(None, StructureSettings(0.1, 10.0, 0.3, "pixels")).values()) == {0.0}
 
 
 @pytest.mark.slow

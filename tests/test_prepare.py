@@ -173,7 +173,7 @@ def test_a_rerun_removes_what_a_killed_writer_left_and_nothing_else(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([neighbour.name, "normals", "state.json"])
 
 
-LATTICE = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3)
+LATTICE = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3, lbp_scale="pixels")
 
 
 def weave_photo(side: int, period: float, angle_deg: float = 20.0, seed: int = 0) -> np.ndarray:

@@ -25,9 +25,10 @@ from clothscope.features.structure import (
     StructureSettings,
     lbp_baseline,
     structure_features,
+    texture_columns,
 )
 
-SETTINGS = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3)
+SETTINGS = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3, lbp_scale="pixels")
 
 
 def weave(size: int = 256, period: float = 10.0, angle_deg: float = 0.0, twill: bool = False) -> np.ndarray:
@@ -85,6 +86,28 @@ def test_zoom_keeps_features_in_units_of_the_fundamental(zoom):
     assert np.median(np.abs([zoomed[c] - base[c] for c in profile])) < 0.3
     for name in ("s_basis_ratio", "s_basis_angle"):
         assert zoomed[name] == pytest.approx(base[name], abs=0.08), name
+
+
+def lbp_distance(a: dict[str, float], b: dict[str, float]) -> float:
+    """Largest difference between the LBP histograms of two rows."""
+    return max(abs(a[name] - b[name]) for name in LBP_COLUMNS)
+
+
+@pytest.mark.parametrize("zoom", [0.67, 1.5])
+def test_lbp_at_the_canonical_period_survives_a_zoom_that_moves_the_pixel_lbp(zoom):
+    canonical = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3, lbp_scale="canonical")
+    at_pixels = [texture_columns(cloth(p), SETTINGS) for p in (9.0, 9.0 * zoom)]
+    at_period = [texture_columns(cloth(p), canonical) for p in (9.0, 9.0 * zoom)]
+    assert at_pixels[0] == structure_features(cloth(9.0), SETTINGS)[0] | lbp_baseline(cloth(9.0))
+    assert {k: at_period[0][k] for k in STRUCTURE_COLUMNS} == {k: at_pixels[0][k] for k in STRUCTURE_COLUMNS}
+    assert lbp_distance(*at_period) < 0.03
+    assert lbp_distance(*at_period) < 0.5 * lbp_distance(*at_pixels)
+
+
+def test_an_unknown_lbp_scale_is_refused():
+    with pytest.raises(ValueError, match="lbp_scale"):
+        texture_columns(cloth(9.0), StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3,
+                                                      lbp_scale="octaves"))
 
 
 def test_smooth_shading_and_folds_do_not_change_the_lattice():

@@ -20,9 +20,12 @@ choose their columns on those other images as the ``classify`` rule does.
 Needs the main run's ``fitted`` and ``photo`` feature tables.
 
     .venv/bin/python workflow/benchmarks/invariance_fitted.py [--images a,b|all] [--out results/bench/invariance] [--features-only]
+        [--overlay config/overlays/NAME.yaml]
 
 ``--features-only`` reuses the run folder's fits and recomputes only the
-feature rows (after a change to the features, not to the fit).
+feature rows (after a change to the features, not to the fit). ``--overlay``
+runs the transformed photos with that config overlay (the main run's feature
+tables, which train the models, must have been made with it too).
 
 Writes ``<out>/invariance_fitted.csv`` (one row per feature set and
 transformation) and ``<out>/invariance_fitted.md``.
@@ -111,6 +114,7 @@ def main() -> int:
     parser.add_argument("--images", default=PAIRS, help="comma-separated image ids, or 'all'")
     parser.add_argument("--out", default="results/bench/invariance")
     parser.add_argument("--features-only", action="store_true", help="reuse the run's fits; recompute the feature rows")
+    parser.add_argument("--overlay", help="config overlay for the transformed photos' run (as the main run's)")
     args = parser.parse_args()
     settings = classify_config()
     out = (ROOT / args.out).resolve()
@@ -118,7 +122,8 @@ def main() -> int:
     transformed_sheet(sheet, out).to_csv(out / "samples.tsv", sep="\t", index=False)
     run = out / "run"
     reuse = ["--rerun-triggers", "mtime", "--forcerun", "features"] if args.features_only else []
-    seconds = snakemake(["--config", f"samples={out / 'samples.tsv'}", f"results={run}", "--quiet", *reuse, "all", "--",
+    overlay = ["--configfile", "config/config.yaml", args.overlay] if args.overlay else []
+    seconds = snakemake([*overlay, "--config", f"samples={out / 'samples.tsv'}", f"results={run}", "--quiet", *reuse, "all", "--",
                          *(str(run / "features" / s / "table.parquet") for s in ("fitted", "photo"))])
     originals = {s: pd.read_parquet(ROOT / "results" / "features" / s / "table.parquet") for s in ("fitted", "photo")}
     transformed = {s: pd.read_parquet(run / "features" / s / "table.parquet") for s in ("fitted", "photo")}
@@ -127,7 +132,8 @@ def main() -> int:
                           for f in SETS for t in PHOTO_TRANSFORMS])
     lines = ["# Invariance of predictions to the photo's rotation, zoom and colour (refitted)", "",
              f"{len(images)} images x {len(PHOTO_TRANSFORMS)} transformations, prepared, fitted and described by the "
-             f"workflow in {seconds / 60:.1f} min (2 cores{', fits reused' if args.features_only else ''}). "
+             f"workflow in {seconds / 60:.1f} min (2 cores{', fits reused' if args.features_only else ''}"
+             f"{f', overlay `{args.overlay}`' if args.overlay else ''}). "
              f"Classifier: QDA, subspace `{settings['subspace']}`, shrinkage `{settings['reg']}`; `record` is "
              f"`{settings['feature_set']}` on fitted maps with the photo beside them. Changed: the model trained on every other original image "
              "predicts another class for the transformed photo than for the original. rotate30 keeps the valid centre, "

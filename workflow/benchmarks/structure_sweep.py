@@ -72,7 +72,7 @@ def main() -> int:
     data = {name: load_fields(folder) for name, folder in folders.items() if (folder / "features" / "fitted").is_dir()}
     rows = []
     for cell in CELLS:
-        settings = StructureSettings(**cell)
+        settings = StructureSettings(**{**validated_config()["features"]["structure"], **cell})
         for name, entry in data.items():
             tables = with_settings(entry, settings)
             images = common_images(tables)

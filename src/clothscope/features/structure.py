@@ -38,7 +38,8 @@ the threads form, in terms that are invariant by construction:
 
 :func:`lbp_baseline` is the plain texture baseline of the feature-set report:
 uniform LBP histograms at 8/1, 16/2 and 24/3 neighbours/radius on the field as
-it is (no scale normalisation).
+it is (no scale normalisation), or, with ``lbp_scale: canonical``, on the
+analysis window resampled to the canonical period (:func:`texture_columns`).
 """
 from __future__ import annotations
 
@@ -86,6 +87,7 @@ class StructureSettings:
     border: float
     peak_threshold: float
     fundamental_fraction: float
+    lbp_scale: str
 
 
 @dataclass(frozen=True)
@@ -310,7 +312,8 @@ def structure_features(field: np.ndarray, settings: StructureSettings) -> tuple[
     features, diagnostics
         ``features`` holds every name of :data:`STRUCTURE_COLUMNS`, all finite;
         ``diagnostics`` holds ``f0`` (bins), ``period_px`` (analysis-field
-        pixels), ``lattice`` (bool) and ``size``.
+        pixels), ``lattice`` (bool), ``size``, ``profile`` and ``canonical`` (the
+        analysis field resampled so its period is :data:`CANONICAL_PERIOD` pixels).
 
     Raises
     ------
@@ -324,11 +327,26 @@ def structure_features(field: np.ndarray, settings: StructureSettings) -> tuple[
     features = {f"s_prof_{k}": float(v) for k, v in enumerate(profile, start=1)}
     features.update(lattice_features(s, lattice))
     features.update(sector_shares(s, lattice))
-    features.update(texture_features(canonical_field(f, lattice.f0), f))
+    canonical = canonical_field(f, lattice.f0)
+    features.update(texture_features(canonical, f))
     features = {name: float(np.nan_to_num(features[name], nan=0.0, posinf=0.0, neginf=0.0)) for name in STRUCTURE_COLUMNS}
     diagnostics = {"f0": lattice.f0, "period_px": f.shape[0] / lattice.f0, "lattice": lattice.found, "size": f.shape[0],
-                   "profile": profile.tolist()}
+                   "profile": profile.tolist(), "canonical": canonical}
     return features, diagnostics
+
+
+def texture_columns(field: np.ndarray, settings: StructureSettings) -> dict[str, float]:
+    """The ``s_*`` and ``lbp_*`` columns of one field.
+
+    ``settings.lbp_scale`` says where the ``lbp_*`` histograms are taken:
+    ``pixels``, the field as it is (the plain baseline; it moves with the
+    photo's zoom), or ``canonical``, the analysis field resampled so its
+    thread period is :data:`CANONICAL_PERIOD` pixels (scale invariant).
+    """
+    if settings.lbp_scale not in ("pixels", "canonical"):
+        raise ValueError(f"lbp_scale must be 'pixels' or 'canonical', got {settings.lbp_scale!r}")
+    features, diagnostics = structure_features(field, settings)
+    return features | lbp_baseline(diagnostics["canonical"] if settings.lbp_scale == "canonical" else field)
 
 
 def shade_features(shade: np.ndarray | None, settings: StructureSettings) -> dict[str, float]:

@@ -39,7 +39,8 @@ Columns (:func:`feature_schema`, an explicit pyarrow schema):
 * this project's thread-structure descriptor, ``s_*``
   (:data:`clothscope.features.structure.STRUCTURE_COLUMNS`), and the plain texture
   baseline ``lbp_*`` (:data:`clothscope.features.structure.LBP_COLUMNS`), both of the
-  source's field; ``a_*``, the structure descriptor of the fitted shade
+  source's field (the LBP at its pixels, or at the canonical thread period with
+  ``features.structure.lbp_scale: canonical``); ``a_*``, the structure descriptor of the fitted shade
   texture (:data:`clothscope.features.structure.SHADE_COLUMNS`; zero without one);
 * with ``extras: true`` only, the ``x_*`` columns of
   :func:`clothscope.features.extras.extra_features` and :func:`surface_features`.
@@ -74,9 +75,8 @@ from clothscope.features.structure import (
     SHADE_COLUMNS,
     STRUCTURE_COLUMNS,
     StructureSettings,
-    lbp_baseline,
     shade_features,
-    structure_features,
+    texture_columns,
 )
 
 #: Keys of the ``features:`` config section that are SpectrumSettings fields.
@@ -205,7 +205,7 @@ def compute_row(image_id: str, fabric_class: str | None, normals: np.ndarray, fi
     extra = {}
     if extras:
         extra = extra_features(result) | surface_features(np.asarray(normals), result, float(provenance.get("texels_per_pixel", 1.0)))
-    described = structure_features(field, structure)[0] | lbp_baseline(field) | shade_features(shade, structure)
+    described = texture_columns(field, structure) | shade_features(shade, structure)
     row = _row(image_id, fabric_class, settings, extras, provenance, roughness, specular, result.features, extra, described)
     return row, result
 
