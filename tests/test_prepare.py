@@ -1,6 +1,7 @@
 """Decoding of every supported format, sRGB handling, crop/resize, clipping, and rejections."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import tracemalloc
 from pathlib import Path
@@ -15,6 +16,7 @@ from PIL import Image
 from clothscope.core.atomic import atomic_dir, write_json
 from clothscope.core.config import settings as config_settings
 from clothscope.core.imageio import ImageRejected, linear_to_srgb, srgb_to_linear, write_exr
+from clothscope.core.schema import InputError
 from clothscope.features.structure import StructureSettings
 from clothscope.prepare.image import prepare_image, to_working_resolution
 
@@ -203,8 +205,35 @@ def test_yarn_dyed_stripes_do_not_read_as_the_thread_period():
     grey = srgb_to_linear(weave_photo(1024, 12.0) / 255.0)[..., :1]
     warp_band = (np.arange(1024) // 96) % 2 == 1  # stripes of 8 threads, red and ecru
     rgb = grey * np.where(warp_band[None, :, None], [0.62, 0.58, 0.48], [0.55, 0.05, 0.05]) / 0.6
-    assert native_period(rgb, 1024, LATTICE, "shading") == pytest.approx(12.0, rel=0.05)
-    assert native_period(rgb, 1024, LATTICE, "luminance") != pytest.approx(12.0, rel=0.05)
+    for peak in ("weighted", "strongest"):
+        assert native_period(rgb, 1024, LATTICE, "shading", peak) == pytest.approx(12.0, rel=0.05)
+    assert native_period(rgb, 1024, LATTICE, "luminance", "strongest") != pytest.approx(12.0, rel=0.05)
+
+
+@pytest.mark.parametrize("step", [0.04, 0.08])
+def test_stripes_of_two_shades_of_one_hue_do_not_read_as_the_thread_period(step):
+    """Two shades of one grey share a chromaticity, so the shading keeps their stripes; the weighted peak still reads the threads."""
+    from scipy import ndimage
+
+    from clothscope.core.imageio import srgb_to_linear
+    from clothscope.prepare.image import native_period
+
+    grey = srgb_to_linear(weave_photo(1024, 12.0) / 255.0)[..., :1]
+    shade = ndimage.gaussian_filter1d(np.where((np.arange(1024) // 96) % 2 == 1, 0.1 + step, 0.1), 6.0)  # 8 threads each
+    rgb = (0.2 * grey + shade[None, :, None]) * np.array([0.45, 0.45, 0.5])
+    assert native_period(rgb, 1024, LATTICE, "shading", "weighted") == pytest.approx(12.0, rel=0.05)
+    assert native_period(rgb, 1024, LATTICE, "shading", "strongest") == pytest.approx(192.0, rel=0.05)  # the repeat
+
+
+def test_an_unknown_period_peak_is_refused():
+    from clothscope.prepare.image import native_period
+
+    with pytest.raises(ValueError, match="period_peak must be one of"):
+        native_period(np.full((128, 128, 3), 0.5), 128, LATTICE, "shading", "tallest")
+    with pytest.raises(ValueError, match="period_peak must be one of"):
+        dataclasses.replace(config_settings("prepare"), period_peak="tallest")
+    with pytest.raises(InputError, match="prepare.period_peak: 'tallest' is not one of"):
+        config_settings("prepare", period_peak="tallest")
 
 
 def test_thread_scale_crops_fine_threads_into_the_band_and_records_it(tmp_path):

@@ -9,7 +9,8 @@ workflow has run on the set, the period ``prepare`` measured at native resolutio
 (``prepared/<id>/status.json``, ``scale.native_period_px``) against the true period as seen
 (the nominal period times :func:`clothscope.evaluate.accuracy.seen_scale`, the mean magnification the
 folds give; knits: wale or course, whichever is closer). The period is also measured here on the luminance and on the shading with the yarn
-colours divided out (``prepare.period_field``). Writes ``results/bench/<name>.{csv,md}`` and
+colours divided out (``prepare.period_field``), taking the strongest peak or the one with the most
+power times frequency (``prepare.period_peak``). Writes ``results/bench/<name>.{csv,md}`` and
 ``<name>.jpg``, the centred 512 px of every image, one row per class.
 The design images of ``period_field`` are one per class from seed 20261202:
 ``.venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml
@@ -39,6 +40,12 @@ from clothscope.prepare.image import STATUS_FILE, native_period
 TOLERANCE = 0.05
 #: a period read this many times too long is a colour or weave repeat: the crop then leaves the threads too fine to fit
 TOO_LONG = 1.8
+#: a period read this many times too short is a harmonic: the crop then leaves few, large threads
+TOO_SHORT = 0.6
+#: (prepare.period_field, prepare.period_peak) pairs the period is measured with here
+MEASURED = (("luminance", "weighted"), ("shading", "strongest"), ("shading", "weighted"))
+FIELDS = {"luminance": "luminance", "shading": "shading with yarn colours divided out"}
+PEAKS = {"strongest": "strongest peak", "weighted": "peak with the most power times frequency"}
 
 #: decode_image limits: the config schema's prepare defaults
 DECODE = tuple(schema_defaults()["prepare"][k] for k in ("min_input_px", "max_megapixels", "clip_threshold"))
@@ -60,7 +67,8 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
         by_field = {}
         if periods:
             rgb = decode_image(path, *DECODE).rgb
-            by_field = {name: period_error(native_period(rgb, 1024, lattice, name), periods) for name in ("luminance", "shading")}
+            by_field = {f"{name}_{peak}": period_ratio(native_period(rgb, 1024, lattice, name, peak), periods)
+                        for name, peak in MEASURED}
         rows.append({"image_id": image_id, "fabric_class": truth["fabric_class"], "weave": draw["weave_variant"],
                      "capture": draw["capture"], "resolution": draw["resolution"], "fov_deg": draw["fov_deg"],
                      "tilt_deg": draw["tilt_deg"], "period_px": truth["thread_period_px"], "colour": draw["colour_scheme"],
@@ -69,13 +77,18 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
                      "prepared": status.is_file(), "periodic": truth["periodic"],
                      "seen_period_px": periods[0] if periods else None, "native_period_px": measured,
                      "period_error": error, "period_ratio": measured / periods[0] if measured and periods else None,
-                     **{f"{name}_period_error": e for name, e in by_field.items()}})
+                     **{f"{name}_period_ratio": r for name, r in by_field.items()}})
     return pd.DataFrame(rows)
 
 
 def period_error(measured: float | None, periods: list[float]) -> float | None:
     """Relative error of a measured period against the closest true one; None when nothing was measured."""
     return min(abs(measured / p - 1) for p in periods) if measured else None
+
+
+def period_ratio(measured: float | None, periods: list[float]) -> float | None:
+    """A measured period over the closest true one; None when nothing was measured."""
+    return min((measured / p for p in periods), key=lambda r: abs(r - 1)) if measured else None
 
 
 def span(values: pd.Series, digits: int = 0) -> str:
@@ -100,13 +113,21 @@ def within(errors: pd.Series) -> str:
     return f"{hits}/{len(errors)} ({hits / len(errors):.0%})"
 
 
+def ratio_counts(ratios: pd.Series) -> str:
+    """Within the tolerance, read too long and too short, out of all images, from measured/true period ratios."""
+    found = ratios.dropna()
+    return (f"{within((ratios - 1).abs())} within {TOLERANCE:.0%}, {int((found >= TOO_LONG).sum())} at least {TOO_LONG:g} "
+            f"times too long, {int((found <= TOO_SHORT).sum())} at most {TOO_SHORT:g} times too short, "
+            f"{int(ratios.isna().sum())} without a lattice")
+
+
 def period_summary(table: pd.DataFrame) -> str:
     """How often the thread period was found within the tolerance, per field it is measured on and as prepared."""
     periodic = table[table["periodic"]]
     lines = [f"Thread period at native resolution (centred 1024 px) within {TOLERANCE:.0%} of the period as seen, "
              f"over {len(periodic)} periodic images:",
-             f"- on the luminance: {within(periodic['luminance_period_error'])}",
-             f"- on the shading with yarn colours divided out: {within(periodic['shading_period_error'])}"]
+             *[f"- on the {FIELDS[name]}, {PEAKS[peak]}: {ratio_counts(periodic[f'{name}_{peak}_period_ratio'])}"
+               for name, peak in MEASURED]]
     prepared = periodic[periodic["prepared"]]
     if prepared.empty:
         lines.append("- as recorded by the workflow's `prepare`: not measured (the workflow has not run on the set)")

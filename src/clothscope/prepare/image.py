@@ -18,7 +18,7 @@ from __future__ import annotations
 import json
 import os
 import traceback
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -27,17 +27,16 @@ from PIL import Image
 
 from clothscope.core.atomic import atomic_dir, write_json
 from clothscope.core.imageio import ImageRejected, decode_image, linear_to_srgb, luminance, write_exr, write_png
-from clothscope.features.structure import StructureSettings, analysis_field, find_lattice, spectrum
+from clothscope.features.structure import Spectrum, StructureSettings, analysis_field, find_lattice, refined_radius, spectrum
 from clothscope.prepare.shading import shading
 
 STATUS_FILE = "status.json"
 IMAGE_FILE = "image.exr"
 CLIPPED_FILE = "clipped.png"
 PREVIEW_FILE = "preview.png"
-#: the native period is that of the strongest lattice peak (a peak needs this share of the strongest's power). The
-#: descriptor's lowest strong peak can be a colour repeat many threads long, which crops the threads below the
-#: fit's resolution; the strongest is the threads themselves or, at worst, a harmonic that crops them larger.
-PERIOD_PEAK_FRACTION = 1.0
+#: which lattice peak gives the native period (``prepare.period_peak``): the most powerful, or the one with the most
+#: power times frequency (a colour repeat many threads long then loses to the threads it is woven from)
+PERIOD_PEAKS = ("weighted", "strongest")
 
 
 @dataclass(frozen=True)
@@ -53,27 +52,63 @@ class PrepareSettings:
     period_band: tuple[float, float]  # wanted thread period, working pixels
     period_window: int  # side of the native-resolution centre square the period is measured on
     period_field: str  # what the period is measured on: "shading" (yarn colours divided out) or "luminance"
+    period_peak: str  # which lattice peak gives the period: "weighted" (power times frequency) or "strongest"
 
     def __post_init__(self) -> None:  # the schema checks every range; it cannot say low < high
         low, high = self.period_band
         if not low < high:
             raise ValueError(f"period_band must be [low, high] with low < high, got {list(self.period_band)}")
         object.__setattr__(self, "period_band", (float(low), float(high)))
+        check_period_peak(self.period_peak)
 
 
-def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings, field: str = "shading") -> float | None:
+def check_period_peak(peak: str) -> None:
+    """Raise ``ValueError`` unless ``peak`` names a rule of :data:`PERIOD_PEAKS`."""
+    if peak not in PERIOD_PEAKS:
+        raise ValueError(f"period_peak must be one of {', '.join(PERIOD_PEAKS)}, got {peak!r}")
+
+
+def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings, field: str = "shading",
+                  peak: str = "weighted") -> float | None:
     """Thread period (native pixels) of the photo's centred ``window`` square, or None when no lattice stands out.
 
-    The period is that of the strongest peak of :func:`clothscope.features.structure.find_lattice`
-    (the descriptor's peak test, :data:`PERIOD_PEAK_FRACTION`) at native resolution, on
-    the luminance or on the shading with the yarn colours divided out
-    (:func:`clothscope.prepare.shading.shading`), whose strongest pattern is the threads'
-    rather than a colour repeat.
+    The peaks are those of :func:`clothscope.features.structure.find_lattice` (the
+    descriptor's peak test) at native resolution, on the luminance or on the shading
+    with the yarn colours divided out (:func:`clothscope.prepare.shading.shading`);
+    the period is that of the peak :func:`period_peak_radius` picks (``peak``).
     """
+    check_period_peak(peak)
     square = centred(rgb, window)[..., :3]
     values = shading(square) if field == "shading" else luminance(square)
-    found = find_lattice(spectrum(analysis_field(values, 0.0)), replace(lattice, fundamental_fraction=PERIOD_PEAK_FRACTION))
-    return float(square.shape[0] / found.f0) if found.found and found.f0 > 0 else None
+    s = spectrum(analysis_field(values, 0.0))
+    found = find_lattice(s, lattice)
+    if not found.found:
+        return None
+    radius = period_peak_radius(s, found.peaks, peak)
+    return float(square.shape[0] / radius) if radius > 0 else None
+
+
+def period_peak_radius(s: Spectrum, peaks: np.ndarray, peak: str) -> float:
+    """Radius (bins) of the lattice peak that gives the thread period.
+
+    ``strongest``: the most powerful peak. ``weighted``: the peak with the most
+    power times radius. A colour repeat many threads long (a stripe or check of
+    one hue in two shades, which the shading cannot divide out) can outshine the
+    threads, but it sits at a fraction of their frequency; a harmonic of the
+    threads sits at a multiple and would need over half their power to win.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``peak`` or an empty ``peaks``.
+    """
+    check_period_peak(peak)
+    if len(peaks) == 0:
+        raise ValueError("no lattice peaks to choose the period from")
+    radii = np.array([refined_radius(s, int(k)) for k in peaks])
+    power = s.smoothed.flat[np.asarray(peaks)]
+    score = power * radii if peak == "weighted" else power
+    return float(radii[int(np.argmax(score))])
 
 
 def thread_crop(source_side: int, period: float | None, settings: PrepareSettings) -> tuple[int, dict[str, Any]]:
@@ -108,7 +143,8 @@ def working_crop(rgb: np.ndarray, settings: PrepareSettings, lattice: StructureS
     side = min(rgb.shape[:2])
     if settings.scale == "frame":
         return side, {"method": "frame", "crop_px": side, "native_px_per_working_px": side / settings.working_resolution}
-    return thread_crop(side, native_period(rgb, settings.period_window, lattice, settings.period_field), settings)
+    period = native_period(rgb, settings.period_window, lattice, settings.period_field, settings.period_peak)
+    return thread_crop(side, period, settings)
 
 
 def centre_square(array: np.ndarray) -> np.ndarray:
