@@ -270,6 +270,17 @@ def test_thread_period_is_the_thread_spacing_not_a_harmonic(stem):
     assert min(abs(period - p) / p for p in periods) < 0.02
 
 
+def test_thread_period_prefers_the_threads_to_a_slow_relief_of_more_height():
+    """A slow relief (a colour repeat or shading the fit explained with tilt) 1.5 times the threads' height at a quarter of their frequency."""
+    size = 256
+    x = np.arange(size) / size
+    height = (0.01 * np.sin(2 * np.pi * 32 * x) + 0.015 * np.sin(2 * np.pi * 8 * x))[None, :].repeat(size, axis=0) * size
+    gx = np.gradient(height, axis=1)
+    normal = np.stack([-gx, np.zeros_like(gx), np.ones_like(gx)], axis=-1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    assert thread_period(normal, config_settings("features")) == pytest.approx(size / 32, rel=0.02)
+
+
 def test_thread_period_of_a_grating_flat_map_and_bad_input():
     size, frequency = 128, 9.0
     height = 0.3 * np.sin(2 * np.pi * frequency * np.arange(size) / size)[None, :].repeat(size, axis=0)

@@ -315,6 +315,11 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Thread periods on the field set's design images (seed 20261202)", ("bench/field_set_design.md",),
                         f"{py}/field_set.py --field results/field_design/field --run results/field_design/run "
                         "--name field_set_design"),
+        BenchmarkReport("Thread periods on the three-weave set (seed 20261203)", ("bench/field_set_weaves.md",),
+                        f"{py}/field_set.py --field results/weaves/field --run results/weaves/run --name field_set_weaves"),
+        BenchmarkReport("Thread periods on a fresh nine-class set (seed 20261207)", ("bench/field_set_confirm.md",),
+                        f"{py}/field_set.py --field results/period_confirm/field --run results/period_confirm/run "
+                        "--name field_set_confirm"),
         BenchmarkReport("Feature sets on the design set, the held-out set and both pooled", ("bench/pooled_sets.md",),
                         f"{py}/pooled_sets.py"),
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),

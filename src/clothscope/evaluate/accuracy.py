@@ -151,9 +151,9 @@ def period_error(fitted_period_px: float | None, truth: dict[str, Any], scale: f
     return float(min(abs(fitted_period_px - p) / p for p in periods))
 
 
-def fitted_period_px(normals: np.ndarray, texels_per_pixel: float) -> float | None:
+def fitted_period_px(normals: np.ndarray, texels_per_pixel: float, weighted: bool = True) -> float | None:
     """Thread period (image px) from the spectrum of a fitted normal map (:func:`clothscope.features.period.thread_period`)."""
-    period = thread_period(normals, settings("features"))  # the schema's default spectrum settings
+    period = thread_period(normals, settings("features"), weighted)  # the schema's default spectrum settings
     return None if period is None else float(period / texels_per_pixel)
 
 

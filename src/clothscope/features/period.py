@@ -1,4 +1,4 @@
-"""The thread period of a normal map: the strongest peak of the relief spectrum recovered from the in-plane normals."""
+"""The thread period of a normal map: the peak of the relief spectrum, recovered from the in-plane normals, with the most power times frequency."""
 from __future__ import annotations
 
 import math
@@ -9,8 +9,8 @@ from clothscope.core.fourier import centred_spectrum, radius_grid, upper_half_pl
 from clothscope.features.paper import FLAT_TOLERANCE, SpectrumSettings, refine_peak, z_component
 
 
-def thread_period(normal: np.ndarray, settings: SpectrumSettings) -> float | None:
-    """Thread period (texels) of a normal map: the strongest peak of the relief's spectrum.
+def thread_period(normal: np.ndarray, settings: SpectrumSettings, weighted: bool = True) -> float | None:
+    """Thread period (texels) of a normal map: the relief spectrum's peak with the most power times frequency.
 
     The z component is about ``1 - |grad h|**2 / 2`` of the relief ``h``: it squares
     the slopes, so its strongest peak is often a harmonic (twice, or sqrt(2) times,
@@ -19,9 +19,14 @@ def thread_period(normal: np.ndarray, settings: SpectrumSettings) -> float | Non
     ``N = -i k H``, but the slopes weight each frequency by ``|k|``, which lifts
     harmonics and the plain weave's diagonal (sqrt(2) times the thread
     frequency). So the relief's spectrum is recovered from them,
-    ``|H| = |k . N| / |k|**2``, and its strongest peak is taken. Bins inside the
-    DC disc (``settings.dc_radius_bins``) are ignored; the peak is refined to
-    sub-bin precision (:func:`refine_peak`).
+    ``|H| = |k . N| / |k|**2``. Its power is weighted by ``|k|`` before the
+    peak is taken, as ``prepare`` weighs its native-resolution peaks
+    (``prepare.period_peak: weighted``): dividing by ``|k|**2`` lifts slow
+    relief, such as a colour repeat or shading the fit explained with tilt,
+    above the threads; with the weight a harmonic still needs over half the
+    threads' power to win (``weighted=False``: the strongest peak). Bins inside the DC disc
+    (``settings.dc_radius_bins``) are ignored; the peak is refined to sub-bin
+    precision (:func:`refine_peak`).
 
     Parameters
     ----------
@@ -29,6 +34,8 @@ def thread_period(normal: np.ndarray, settings: SpectrumSettings) -> float | Non
         (N, N, 3) tangent-space unit normals, N >= 16.
     settings : SpectrumSettings
         Supplies the window and the DC radius.
+    weighted : bool
+        Weight the power by frequency (True) or take the strongest peak.
 
     Returns
     -------
@@ -51,7 +58,7 @@ def thread_period(normal: np.ndarray, settings: SpectrumSettings) -> float | Non
     spectra = [centred_spectrum(c, settings.window) for c in (n_x, n_y)]
     relief = np.abs(dx * spectra[0] - dy * spectra[1]) / np.maximum(radius, 1e-9) ** 2  # image rows run along -y
     relief[radius < settings.dc_radius_bins(size)] = 0.0
-    searched = np.where(upper_half_plane(dy, dx), relief, 0.0)
+    searched = np.where(upper_half_plane(dy, dx), relief**2 * (radius if weighted else 1.0), 0.0)
     if not searched.max() > 0.0:
         return None
     row, col = np.unravel_index(int(np.argmax(searched)), searched.shape)
