@@ -6,7 +6,9 @@ For each run folder and its sample sheet, every fitted image with a true period 
 accuracy report scores it (:func:`clothscope.evaluate.accuracy.period_error`: against the period
 as seen, in the frame the fit saw), once with the strongest peak of the relief spectrum and once
 with the peak of most power times frequency (:func:`clothscope.features.period.thread_period`).
-Writes ``results/bench/<name>.{csv,md}``. Nothing is chosen here.
+Writes ``results/bench/<name>.{csv,md}``. Nothing is chosen here. ``docs/results.md`` lists the
+embedded, held-out, three-weave and fresh nine-class runs; ``results/weaves/run_strongest`` is the
+three-weave set run with ``prepare: {period_peak: strongest}`` in a config overlay.
 """
 from __future__ import annotations
 

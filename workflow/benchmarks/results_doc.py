@@ -320,6 +320,12 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Thread periods on a fresh nine-class set (seed 20261207)", ("bench/field_set_confirm.md",),
                         f"{py}/field_set.py --field results/period_confirm/field --run results/period_confirm/run "
                         "--name field_set_confirm"),
+        BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
+                        ("bench/fitted_period.md",),
+                        f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "
+                        "results/weaves/run_strongest:results/weaves/field/samples.tsv "
+                        "results/weaves/run:results/weaves/field/samples.tsv "
+                        "results/period_confirm/run:results/period_confirm/field/samples.tsv"),
         BenchmarkReport("Feature sets on the design set, the held-out set and both pooled", ("bench/pooled_sets.md",),
                         f"{py}/pooled_sets.py"),
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
