@@ -63,7 +63,8 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
         periods = [p * seen for p in (truth["thread_period_px"], truth["course_period_px"]) if p]
         status = run / "prepared" / image_id / STATUS_FILE
         measured = json.loads(status.read_text())["scale"].get("native_period_px") if status.is_file() else None
-        error = period_error(measured, periods) if periods else None
+        ratio = period_ratio(measured, periods) if periods else None
+        error = None if ratio is None else abs(ratio - 1)
         by_field = {}
         if periods:
             rgb = decode_image(path, *DECODE).rgb
@@ -79,11 +80,6 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
                      "period_error": error, "period_ratio": measured / periods[0] if measured and periods else None,
                      **{f"{name}_period_ratio": r for name, r in by_field.items()}})
     return pd.DataFrame(rows)
-
-
-def period_error(measured: float | None, periods: list[float]) -> float | None:
-    """Relative error of a measured period against the closest true one; None when nothing was measured."""
-    return min(abs(measured / p - 1) for p in periods) if measured else None
 
 
 def period_ratio(measured: float | None, periods: list[float]) -> float | None:

@@ -21,8 +21,9 @@ from harness import ROOT, publish
 
 from clothscope.core.imageio import read_exr
 from clothscope.core.truth import truth_paths
-from clothscope.evaluate.accuracy import fitted_period_px, in_working_frame, period_error, seen_scale
+from clothscope.evaluate.accuracy import fitted_period_px, period_error, seen_scale, truth_as_fitted
 from clothscope.fit.outputs import NORMAL_FILE, STATE_FILE
+from clothscope.prepare.image import STATUS_FILE
 
 TOLERANCE = 0.05
 RULES = {"strongest": False, "weighted": True}
@@ -33,13 +34,11 @@ def run_rows(run: Path, sheet: Path) -> list[dict]:
     rows = []
     for sample in pd.read_csv(sheet, sep="\t", dtype=str, keep_default_na=False).itertuples():
         normals = run / "fit" / sample.image_id / "normals"
-        status = run / "prepared" / sample.image_id / "status.json"
+        status = run / "prepared" / sample.image_id / STATUS_FILE
         if not (normals / NORMAL_FILE).is_file() or not status.is_file():
             continue
         state = json.loads((normals / STATE_FILE).read_text(encoding="utf-8"))
-        prepared = json.loads(status.read_text(encoding="utf-8"))
-        truth = json.loads(truth_paths(ROOT / sample.path)["json"].read_text(encoding="utf-8"))
-        truth = in_working_frame(truth, prepared.get("scale"), min(prepared.get("source_size") or [0]))
+        truth = truth_as_fitted(truth_paths(ROOT / sample.path)["json"], status)
         if state["status"] != "fitted" or not truth.get("thread_period_px"):
             continue
         normal = read_exr(normals / NORMAL_FILE)

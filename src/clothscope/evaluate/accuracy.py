@@ -187,6 +187,15 @@ def in_working_frame(truth: dict[str, Any], scale: dict[str, Any] | None, source
     return truth | {"camera": camera} | periods
 
 
+def truth_as_fitted(truth_json: str | os.PathLike[str], prepared_status: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+    """An image's truth record, put in the frame the fit saw by its prepared ``status.json`` (:func:`in_working_frame`)."""
+    truth = json.loads(Path(truth_json).read_text(encoding="utf-8"))
+    if prepared_status is None:
+        return truth
+    status = json.loads(Path(prepared_status).read_text(encoding="utf-8"))
+    return in_working_frame(truth, status.get("scale"), min(status.get("source_size") or [0]))
+
+
 def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: str | os.PathLike[str],
                  benchmarks: dict[str, str], prepared_status: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     """Every error of one image's fit against its ground truth, plus stage times and memory.
@@ -195,10 +204,7 @@ def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: st
     put the truth in the frame the fit saw (:func:`in_working_frame`).
     """
 
-    truth = json.loads(Path(truth_json).read_text(encoding="utf-8"))
-    if prepared_status is not None:
-        status = json.loads(Path(prepared_status).read_text(encoding="utf-8"))
-        truth = in_working_frame(truth, status.get("scale"), min(status.get("source_size") or [0]))
+    truth = truth_as_fitted(truth_json, prepared_status)
     row: dict[str, Any] = {"image_id": image_id, "fabric_class": truth["fabric_class"]}
     normals_dir = Path(fit_root) / "normals"
     state = json.loads((normals_dir / STATE_FILE).read_text(encoding="utf-8"))
