@@ -326,6 +326,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "results/weaves/run_strongest:results/weaves/field/samples.tsv "
                         "results/weaves/run:results/weaves/field/samples.tsv "
                         "results/period_confirm/run:results/period_confirm/field/samples.tsv"),
+        BenchmarkReport("Classifier of record with and without the photo's own sets among its candidates",
+                        ("bench/record_candidates.md",),
+                        f"{py}/record_candidates.py results results/holdout/run results/weaves/run "
+                        "results/holdout_confirm/run results/weaves_confirm/run"),
         BenchmarkReport("Feature sets on the design set, the held-out set and both pooled", ("bench/pooled_sets.md",),
                         f"{py}/pooled_sets.py"),
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),

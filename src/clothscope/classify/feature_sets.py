@@ -26,6 +26,9 @@ from clothscope.features.structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_
 BRDF_COLUMNS = ("roughness", "specular_norm")
 #: Column groups the ``auto`` feature set chooses from, inside each LOOCV fold (ties go to the first).
 AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf", "texture_shade_brdf")
+#: The photo's own column sets beside a fitted or true classifier (``photo_structure`` is named above them):
+#: its radial profile, the paper's features, LBP, and structure with LBP (the photo's BRDF columns are zero, so dropped).
+PHOTO_GROUPS = {"photo_profile": "profile", "photo_paper": "paper", "photo_lbp": "lbp", "photo_texture": "texture"}
 #: Provenance columns a joined table keeps from its first source.
 JOINED_PROVENANCE = ("image_id", "fabric_class", "status", "reason", "normal_source", "mitsuba_variant", "config_hash")
 
@@ -35,9 +38,9 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
 
     ``paper``: roughness, specular_norm, ``r_*``, ``z_*``, ``n_peaks`` and any
     ``x_*`` extras; ``structure``: ``s_*``; ``brdf``: roughness and
-    specular_norm; ``structure_brdf``: both; ``profile_brdf``: the radial
-    profile ``s_prof_*`` and the BRDF; ``lbp``: the LBP baseline;
-    ``texture_brdf``: structure, LBP and BRDF together; ``shade``: ``a_*``,
+    specular_norm; ``structure_brdf``: both; ``profile``: the radial
+    profile ``s_prof_*``; ``profile_brdf``: it and the BRDF; ``lbp``: the LBP
+    baseline; ``texture``: structure and LBP; ``texture_brdf``: with the BRDF; ``shade``: ``a_*``,
     the structure descriptor of a fitted shade texture;
     ``texture_shade_brdf``: ``texture_brdf`` and ``shade`` together.
     """
@@ -46,7 +49,8 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
         return [c for c in names if c in ("roughness", "specular_norm", "n_peaks") or c.startswith(("r_", "z_", "x_"))]
     profile = tuple(c for c in STRUCTURE_COLUMNS if c.startswith("s_prof_"))
     wanted = {"structure": STRUCTURE_COLUMNS, "brdf": BRDF_COLUMNS, "lbp": LBP_COLUMNS,
-              "structure_brdf": STRUCTURE_COLUMNS + BRDF_COLUMNS, "profile_brdf": profile + BRDF_COLUMNS,
+              "structure_brdf": STRUCTURE_COLUMNS + BRDF_COLUMNS, "profile": profile, "profile_brdf": profile + BRDF_COLUMNS,
+              "texture": STRUCTURE_COLUMNS + LBP_COLUMNS,
               "texture_brdf": STRUCTURE_COLUMNS + LBP_COLUMNS + BRDF_COLUMNS, "shade": SHADE_COLUMNS,
               "texture_shade_brdf": STRUCTURE_COLUMNS + LBP_COLUMNS + SHADE_COLUMNS + BRDF_COLUMNS}.get(group)
     if wanted is None:
@@ -332,6 +336,7 @@ def classifier_candidates(feature_set: str, maps: str, columns: list[str] | pd.I
     if maps != "photo" and any(str(n).startswith("photo.") for n in columns):
         sets["photo_structure"] = source_columns(columns, "photo", "structure")
         sets["plus_photo"] = sets["structure_brdf"] + sets["photo_structure"]
+        sets |= {name: source_columns(columns, "photo", group) for name, group in PHOTO_GROUPS.items()}
     if feature_set == "auto":
         return sets
     if feature_set not in sets:
