@@ -280,6 +280,11 @@ def test_joined_table_marks_an_image_unusable_when_any_source_fails():
     assert "photo_lbp" not in classifier_candidates("auto", "photo", joined.columns)  # a photo classifier has them as its own
     with pytest.raises(ValueError, match="needs sources"):
         classifier_candidates("photo_structure", "photo", joined.columns)
+    from clothscope.core.config import config_schema
+
+    forcible = config_schema()["properties"]["classify"]["properties"]["feature_set"]["enum"]
+    assert set(forcible) == {"auto", *sets}  # every candidate can be forced, and nothing else
+    assert classifier_candidates("photo_lbp", "fitted", joined.columns) == {"photo_lbp": sets["photo_lbp"]}
 
 
 def test_diagnosis_of_a_fit_that_equals_the_truth_finds_nothing_wrong(tmp_path):
