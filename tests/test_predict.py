@@ -66,6 +66,7 @@ def test_predict_prints_a_class_per_photo_and_a_reason_per_bad_one(photo_model, 
     assert lines[1].startswith(f"{bad}\tnot classified\t{bad}") and "\n" not in lines[1]
     assert lines[2].startswith(f"{tmp_path / 'missing.jpg'}\tnot classified\t") and "does not exist" in lines[2]
     assert not (tmp_path / "out" / "satin_red" / "fit").exists(), "a photo-feature model must not run the fit"
+    assert record["fit"] is None
 
 
 def test_predict_fails_only_when_no_photo_is_classified(photo_model, tmp_path, capsys):
@@ -100,9 +101,8 @@ def test_unique_ids_are_safe_and_distinct():
     assert unique_ids(["a/x y.png", "b/x y.png", "c/.hidden.jpg"]) == ["x_y", "x_y_2", "hidden"]
 
 
-@pytest.mark.slow
-def test_predict_fits_the_photo_when_the_model_reads_fitted_maps(photo_model, tmp_path, capsys):
-    """A model over fitted-map columns runs the three fit stages (tiny settings) before its features."""
+def tiny_fit_model(photo_model, folder, source: str):
+    """The photo model re-saved with tiny fit settings, reading ``source`` (``photo`` or ``fitted``) columns."""
     model = load_model(photo_model)
     settings = model.metadata["metadata"]["settings"]
     tiny = {"geometry": {"resolution": 32, "spp": 2, "iterations": 3},
@@ -110,16 +110,38 @@ def test_predict_fits_the_photo_when_the_model_reads_fitted_maps(photo_model, tm
             "normals": {"resolution": 64, "texture": 64, "spp": 1, "spp_grad": 1, "iterations": 2, "joint_iterations": 2}}
     for stage, knobs in tiny.items():
         settings["fit"][stage].update(knobs)
-    model.feature_columns = [c.replace("photo.", "fitted.") for c in model.feature_columns]
-    folder = tmp_path / "fitted_model"
-    save_model(model, folder, {**model.metadata["metadata"], "normal_source": "fitted", "settings": settings})
+    model.feature_columns = [c.replace("photo.", f"{source}.") for c in model.feature_columns]
+    save_model(model, folder, {**model.metadata["metadata"], "normal_source": source, "settings": settings})
+    return folder
+
+
+def assert_fitted(out, image_id: str) -> None:
+    for stage in ("geometry", "material", "normals"):
+        state = json.loads((out / image_id / "fit" / stage / "state.json").read_text())
+        assert state["status"] == "fitted", state
+
+
+@pytest.mark.slow
+def test_predict_fits_the_photo_when_the_model_reads_fitted_maps(photo_model, tmp_path, capsys):
+    """A model over fitted-map columns runs the three fit stages (tiny settings) before its features."""
+    folder = tiny_fit_model(photo_model, tmp_path / "fitted_model", "fitted")
     assert main(["predict", str(HELD_OUT), "--model", str(folder), "--out", str(tmp_path / "out"), "--quiet",
                  "--threads", "1"]) == 0
     photo, predicted, _, _ = capsys.readouterr().out.strip().split("\t")
     assert predicted in CLASSES
-    for stage in ("geometry", "material", "normals"):
-        state = json.loads((tmp_path / "out" / "satin_red" / "fit" / stage / "state.json").read_text())
-        assert state["status"] == "fitted", state
+    assert_fitted(tmp_path / "out", "satin_red")
+
+
+@pytest.mark.slow
+def test_predict_with_render_fits_the_photo_for_a_photo_model_and_names_the_fit(photo_model, tmp_path, capsys):
+    """``--render`` runs the fit although the model reads only the photo; physics.json points at its normal-map stage."""
+    folder = tiny_fit_model(photo_model, tmp_path / "photo_model", "photo")
+    assert main(["predict", str(HELD_OUT), "--model", str(folder), "--out", str(tmp_path / "out"), "--quiet",
+                 "--threads", "1", "--render"]) == 0
+    physics_path = capsys.readouterr().out.strip().split("\t")[3]
+    assert_fitted(tmp_path / "out", "satin_red")
+    fit = json.loads(open(physics_path).read())["fit"]
+    assert fit == str(tmp_path / "out" / "satin_red" / "fit" / "normals") and (tmp_path / "out" / "satin_red" / "fit" / "normals" / "material.json").is_file()
 
 
 def test_a_model_recorded_before_a_key_takes_its_legacy_value_else_the_schema_default(photo_model):

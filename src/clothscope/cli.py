@@ -70,7 +70,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
     log.handlers[:] = [logging.FileHandler(log_path, encoding="utf-8")]
     log.setLevel(logging.INFO)
     log.propagate = False
-    stages = [s for s in STAGES if "fitted" in model_sources(model) or not s.startswith("fit_")]
+    stages = [s for s in STAGES if args.render or "fitted" in model_sources(model) or not s.startswith("fit_")]
     results: list[Prediction] = []
     for photo, image_id in zip(args.photos, unique_ids(args.photos)):
         with tqdm(total=len(stages), desc=image_id, unit="stage", leave=False, disable=args.quiet) as bar:
@@ -79,7 +79,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
                 bar.set_postfix_str(stage)
 
             try:
-                result = predict_photo(photo, image_id, model, physics, out, args.threads, log, step)
+                result = predict_photo(photo, image_id, model, physics, out, args.threads, log, step, args.render)
             except (ValueError, OSError) as err:
                 result = Prediction(photo, image_id, None, None, None, str(err).splitlines()[0])
         results.append(result)
@@ -95,8 +95,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"clothscope {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
     pred = commands.add_parser("predict", help="fabric class and physics of photos, with a model the workflow trained",
-                               description="Prepares each photo, fits it (only when the model reads fitted-map "
-                                           "features), computes its features with the settings the model was trained "
+                               description="Prepares each photo, fits it (when the model reads fitted-map "
+                                           "features, or with --render), computes its features with the settings the model was trained "
                                            "with, and prints one tab-separated line per photo: photo, class, posterior, "
                                            "physics JSON (or 'not classified' and the reason). Exit code 0 when any "
                                            "photo was classified, 1 when none was, 2 when the model is missing or bad.")
@@ -107,6 +107,8 @@ def build_parser() -> argparse.ArgumentParser:
     pred.add_argument("--out", default="predictions", help="receives one folder per photo (default: predictions)")
     pred.add_argument("--physics", help="fabric class -> ArcSim table (default: the one the model was trained with)")
     pred.add_argument("--threads", type=int, default=None, help="Dr.Jit threads of the fit (default: all cores)")
+    pred.add_argument("--render", action="store_true",
+                      help="fit every photo, also when the model reads only the photo: the BRDF, normal map and scene for a renderer")
     pred.add_argument("--quiet", action="store_true", help="no progress bars")
     pred.set_defaults(func=cmd_predict)
     sheet = commands.add_parser("sheet", help="build a sample sheet from <root>/<class>/<image>")

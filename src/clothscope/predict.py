@@ -1,8 +1,8 @@
 """``clothscope predict``: fabric class and physics of photos, with a model the workflow trained.
 
 Each photo goes through the workflow's own stage functions in this process:
-prepare, the three fit stages (only when the model reads fitted-map
-features), the feature rows of the sources the model reads, the model's
+prepare, the three fit stages (when the model reads fitted-map features, or
+with ``render``), the feature rows of the sources the model reads, the model's
 posteriors and the ArcSim physics. The settings are the ones the model was
 trained with (its record), so a photo's features are computed the way the
 training images' were.
@@ -101,8 +101,11 @@ def _fit(prepared: Path, work: Path, settings: dict[str, Any], threads: int, log
 
 
 def predict_photo(photo: str, image_id: str, model: QdaModel, physics_table: dict[str, PhysicsEntry], out: Path,
-                  threads: int, log: logging.Logger, step: Callable[[str], None]) -> Prediction:
-    """Prepare, fit (when the model needs it), featurise and classify one photo into ``out/<image_id>/``."""
+                  threads: int, log: logging.Logger, step: Callable[[str], None], render: bool = False) -> Prediction:
+    """Prepare, fit (when the model needs it, or ``render``), featurise and classify one photo into ``out/<image_id>/``.
+
+    With a fit, ``physics.json`` names its folder (``fit``): the BRDF, normal map and scene a renderer needs.
+    """
     settings = training_settings(model)
     work = out / image_id
     step("prepare")
@@ -112,7 +115,7 @@ def predict_photo(photo: str, image_id: str, model: QdaModel, physics_table: dic
         return Prediction(photo, image_id, None, None, None, record["reason"])
     sources = model_sources(model)
     dirs = {"photo": work / "prepared"}
-    if "fitted" in sources:
+    if "fitted" in sources or render:
         dirs["fitted"] = _fit(work / "prepared", work / "fit", settings, threads, log, step)
     step("features")
     tables = {}
@@ -132,5 +135,6 @@ def predict_photo(photo: str, image_id: str, model: QdaModel, physics_table: dic
     target = work / "physics.json"
     write_json(target, {"image_id": image_id, "photo": str(photo), "predicted_class": str(result["predicted_class"]),
                         "posteriors": posteriors, "model": model.metadata.get("arrays_sha256"),
+                        "fit": str(dirs["fitted"]) if "fitted" in dirs else None,
                         "physics": physics_for(posteriors, physics_table)})
     return Prediction(photo, image_id, str(result["predicted_class"]), max(posteriors.values()), str(target))
