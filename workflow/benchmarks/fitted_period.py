@@ -17,7 +17,7 @@ import json
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, publish
+from harness import ROOT, publish, shown
 
 from clothscope.core.imageio import read_exr
 from clothscope.core.truth import truth_paths
@@ -42,7 +42,7 @@ def run_rows(run: Path, sheet: Path) -> list[dict]:
         if state["status"] != "fitted" or not truth.get("thread_period_px"):
             continue
         normal = read_exr(normals / NORMAL_FILE)
-        rows.append({"run": str(run.relative_to(ROOT) if run.is_relative_to(ROOT) else run), "image_id": sample.image_id,
+        rows.append({"run": shown(run), "image_id": sample.image_id,
                      "fabric_class": sample.fabric_class,
                      **{f"{rule}_error": period_error(fitted_period_px(normal, state["texels_per_pixel"], weighted), truth,
                                                       seen_scale(truth)) for rule, weighted in RULES.items()}})

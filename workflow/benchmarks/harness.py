@@ -46,6 +46,14 @@ def write_sheet(images: list[str] | None, target: Path) -> Path:
     return target
 
 
+def shown(path: Path) -> str:
+    """``path`` relative to the repository root when it is inside it, else as it is (for reports)."""
+    try:
+        return str(path.resolve().relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
 def publish(folder: Path, name: str, table: pd.DataFrame, text: str, float_format: str | None = None) -> None:
     """Write ``<name>.csv`` (the table) and ``<name>.md`` (the text) into ``folder`` atomically, and print the text."""
     write_text(folder / f"{name}.csv", table.to_csv(index=False, float_format=float_format))

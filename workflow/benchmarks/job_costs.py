@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from harness import ROOT, STAGES, publish, validated_config
+from harness import ROOT, STAGES, publish, shown, validated_config
 
 from clothscope.fit.outputs import LOSS_FILE
 
@@ -169,7 +169,7 @@ def main() -> None:
         raise SystemExit(f"no fitted jobs with loss curves under {args.run}: run the workflow first")
     start_up = {name: fresh_interpreter_seconds(code, args.repeats) for name, code in START_UP.items()}
     table = summary(jobs, start_up)
-    lines = [f"Medians over {jobs['image_id'].nunique()} images of `{args.run.relative_to(ROOT) if args.run.is_relative_to(ROOT) else args.run}` "
+    lines = [f"Medians over {jobs['image_id'].nunique()} images of `{shown(args.run)}` "
              "(as its jobs ran; the default profile runs two side by side on two cores).", "",
              table.to_markdown(index=False, floatfmt=".2f"), "",
              f"Start-up of a job process, measured in fresh interpreters (median of {args.repeats}):", ""]

@@ -17,11 +17,11 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, publish
+from class_subsets import classify_config
+from harness import ROOT, publish, shown
 
 from clothscope.classify.feature_sets import PHOTO_GROUPS, classifier_candidates, joined_table
 from clothscope.classify.loocv import loocv
-from clothscope.core.config import schema_defaults
 from clothscope.features.sources import STATUS_OK
 from clothscope.features.table import read_table
 
@@ -35,12 +35,12 @@ def run_rows(run: Path) -> list[dict]:
     ok = joined[joined["status"] == STATUS_OK]
     everything = classifier_candidates("auto", "fitted", joined.columns)
     without = {name: columns for name, columns in everything.items() if name not in PHOTO_GROUPS}
-    settings = schema_defaults()["classify"]
+    settings = classify_config()
     rows = []
     for label, candidates in zip(LISTS, (without, everything)):
         result = loocv(ok, [], settings["reg"], select_from=candidates, subspace=settings["subspace"])
         chosen = ", ".join(f"{name} {count}" for name, count in sorted(result.selected.items(), key=lambda kv: -kv[1]))
-        rows.append({"run": str(run.relative_to(ROOT) if run.is_relative_to(ROOT) else run), "candidates": label,
+        rows.append({"run": shown(run), "candidates": label,
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy, "folds_chose": chosen})
     return rows
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from harness import ROOT, SUBSET, publish, snakemake, write_sheet
+from harness import ROOT, SUBSET, publish, shown, snakemake, write_sheet
 
 #: columns of a stage's loss.csv that hold wall-clock time, not results
 TIMING_COLUMNS = ("seconds",)
@@ -66,9 +66,8 @@ def compare(reference: Path, rerun: Path, image: str) -> list[dict]:
 def summary(table: pd.DataFrame, images: list[str], reference: Path, wall_s: float) -> str:
     """The report: how many files match, and every file that does not."""
     differ = table[~table["content"]]
-    shown = reference.relative_to(ROOT) if reference.is_relative_to(ROOT) else reference
     lines = [f"Images {', '.join(images)}: prepare, fit (three stages) and fitted features rerun from scratch into a "
-             f"fresh folder ({wall_s:.0f} s), compared with `{shown}`.",
+             f"fresh folder ({wall_s:.0f} s), compared with `{shown(reference)}`.",
              "",
              f"- files compared: {len(table)}",
              f"- byte-identical: {int(table['bytes'].sum())}",

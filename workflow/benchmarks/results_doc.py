@@ -22,10 +22,11 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
+from harness import ROOT, shown
+
 from clothscope.core.atomic import write_text
 from clothscope.core.config import schema_defaults
 
-ROOT = Path(__file__).resolve().parents[2]
 THIS_COMMAND = ".venv/bin/python workflow/benchmarks/results_doc.py"
 
 
@@ -46,14 +47,6 @@ class BenchmarkReport:
     title: str
     candidates: tuple[str, ...]
     command: str
-
-
-def shown(path: Path) -> str:
-    """``path`` relative to the repository root when it is inside it, for display."""
-    try:
-        return str(path.resolve().relative_to(ROOT))
-    except ValueError:
-        return str(path)
 
 
 def written_on(path: Path) -> str:

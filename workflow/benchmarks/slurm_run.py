@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from harness import ROOT, publish, write_sheet
+from harness import ROOT, publish, shown, write_sheet
 
 TARGET = Path("features") / "fitted" / "table.parquet"
 
@@ -139,7 +139,7 @@ def main() -> None:
                           {"run": " ".join(slurm_flags), "jobs": jobs_done(slurm_log), "wall_s": slurm_s}])
     lines = ["# One small run: local executor vs the Slurm profile", "",
              (f"Images {args.images} (`preset=fast`), target `<results>/{TARGET}`, each run into a fresh folder under "
-              f"`{work.relative_to(ROOT) if work.is_relative_to(ROOT) else work}`."),
+              f"`{shown(work)}`."),
              (f"Machine: {before} at the start, {machine().split(', ')[-1]} at the end. The Slurm cluster runs on this same "
               "machine, so the figures depend on its load and on the executor's polling, not on cluster capacity."), "",
              "| run | jobs | wall s |", "|---|---|---|"]
