@@ -202,7 +202,7 @@ def test_refitted_thread_structure_survives_recolouring_rotation_and_zoom(tmp_pa
 
     settings = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3, lbp_scale="pixels")
     field = validate({}, load_schema(SCHEMAS / "config.schema.yaml"), "config")["features"]["fitted_field"]
-    common = dict(variant="llvm_ad_rgb", threads=2, full_effects=False, log=logging.getLogger("test_invariance"))
+    common = dict(variant="llvm_ad_rgb", threads=2, full_effects=False, log=logging.getLogger("test_invariance"), sample_seed=0)
 
     def refit(photo, out):
         prepare_image("case", photo, out / "prepared", config_settings("prepare", working_resolution=128, scale="frame"))

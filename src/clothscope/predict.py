@@ -90,7 +90,8 @@ def _fit(prepared: Path, work: Path, settings: dict[str, Any], threads: int, log
     """The three fit stages of one photo; returns the normals folder (its state says if a stage failed)."""
 
     fit = settings["fit"]
-    common = {"variant": settings["variant"], "threads": threads, "full_effects": fit["full_effects"], "log": log}
+    common = {"variant": settings["variant"], "threads": threads, "full_effects": fit["full_effects"], "log": log,
+              "sample_seed": fit["sample_seed"]}
     step("fit_geometry")
     jobs.geometry_job(str(prepared), str(work / "geometry"), GeometrySettings(**fit["geometry"]), **common)
     step("fit_material")

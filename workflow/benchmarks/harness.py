@@ -20,6 +20,9 @@ ROOT = Path(__file__).resolve().parents[2]
 STAGES = ("geometry", "material", "normals")
 #: one image per class
 SUBSET = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_gauze_ivory,knit_jersey_charcoal,velvet_ivory"
+#: two images per class
+TWO_PER_CLASS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet")
+                         for d in ("red", "ivory"))
 
 
 def validated_config() -> dict:

@@ -129,7 +129,8 @@ def kernel_split(image: str, results: Path) -> pd.DataFrame:
 
     config = validated_config()
     fit = config["fit"]
-    common = dict(variant=config["variant"], threads=2, full_effects=fit["full_effects"], log=logging.getLogger("job_costs"))
+    common = dict(variant=config["variant"], threads=2, full_effects=fit["full_effects"], log=logging.getLogger("job_costs"),
+                  sample_seed=fit["sample_seed"])
     mitsuba_for(config["variant"], 2)
     prepared = str(results / "prepared" / image)
     rows = []

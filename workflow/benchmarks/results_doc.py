@@ -341,6 +341,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/effects_ablation.py --images all --out results/bench/effects_all"),
         BenchmarkReport("Fit time per image, kernel cache cold and warm", ("bench/fit_timing/fit_timing.md",),
                         f"{py}/fit_timing.py"),
+        BenchmarkReport("Fit time per image, settings side by side", ("bench/fit_speed/fit_speed.md",), f"{py}/fit_speed.py"),
         BenchmarkReport("Where a fit job's seconds go", ("bench/job_costs.md",), f"{py}/job_costs.py"),
         BenchmarkReport("The normal-map step: backward pass and freezing", ("bench/backward_pass.md",),
                         f"{py}/backward_pass.py"),

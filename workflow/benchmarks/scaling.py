@@ -22,10 +22,7 @@ import tempfile
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, publish, snakemake, write_sheet
-
-TWO_PER_CLASS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet")
-                         for d in ("red", "ivory"))
+from harness import ROOT, TWO_PER_CLASS, publish, snakemake, write_sheet
 
 
 def fit_all(results: Path, cores: int, overlay: dict, sheet: Path, home: str) -> float:

@@ -22,6 +22,7 @@ rule fit_geometry:
         settings=config["fit"]["geometry"],
         variant=config["variant"],
         full_effects=config["fit"]["full_effects"],
+        sample_seed=config["fit"]["sample_seed"],
     script:
         "../scripts/fit_stage.py"
 
@@ -47,6 +48,7 @@ rule fit_material:
         settings=config["fit"]["material"],
         variant=config["variant"],
         full_effects=config["fit"]["full_effects"],
+        sample_seed=config["fit"]["sample_seed"],
     script:
         "../scripts/fit_stage.py"
 
@@ -78,6 +80,7 @@ rule fit_normals:
         settings=config["fit"]["normals"],
         variant=config["variant"],
         full_effects=config["fit"]["full_effects"],
+        sample_seed=config["fit"]["sample_seed"],
     script:
         "../scripts/fit_stage.py"
 

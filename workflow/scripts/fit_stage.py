@@ -6,7 +6,8 @@ from clothscope.fit.material import MaterialSettings
 from clothscope.fit.normals import NormalSettings
 
 stage = snakemake.rule.removeprefix("fit_")
-common = dict(variant=snakemake.params.variant, threads=snakemake.threads, full_effects=snakemake.params.full_effects)
+common = dict(variant=snakemake.params.variant, threads=snakemake.threads, full_effects=snakemake.params.full_effects,
+              sample_seed=snakemake.params.sample_seed)
 with job_log(snakemake.log[0], snakemake.rule) as log:
     inputs, out = snakemake.input, snakemake.output[0]
     if stage == "geometry":

@@ -71,8 +71,11 @@ def initial_base_color(target: Target, camera: FitCamera, light: PointLight) -> 
 
 
 def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full_effects: bool,
-                 log: logging.Logger) -> tuple[FitScene, dict[str, Any]]:
-    """Fit camera-facing depth of the plane mesh to ``photo``; returns the fit and its record."""
+                 log: logging.Logger, sample_seed: int) -> tuple[FitScene, dict[str, Any]]:
+    """Fit camera-facing depth of the plane mesh to ``photo``; returns the fit and its record.
+
+    ``sample_seed`` is the config's ``fit.sample_seed`` (which render samples the steps draw).
+    """
     camera = FitCamera(settings.fov_deg)
     light, light_residual = estimate_light(photo.image, photo.weight, camera)
     tilt = estimate_tilt(photo.image, photo.weight, camera, settings.tilt_prior_deg if settings.pin_tilt else 0.0)
@@ -87,7 +90,7 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
     plan = plan_stage("geometry", Evidence(), full_effects)
     log.info("effects plan: %s (%s)", plan.integrator, "; ".join(plan.reasons))
     normal = cloth_normal(tilt.slope_x, tilt.slope_y)
-    loop, steps = run_vertex_loop(mi, fit, target, plan, settings, log, normal)
+    loop, steps = run_vertex_loop(mi, fit, target, plan, settings, log, normal, sample_seed)
     update_fit(mi, fit, steps, loop.best, settings, normal)
     if settings.fit_light:
         log.info("light refined: polar %.1f deg, azimuth %.1f deg", fit.light.polar_deg, fit.light.azimuth_deg)
@@ -99,19 +102,19 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
     if refined.integrator != plan.integrator:
         log.info("fitted geometry calls for %s (%s): refining", refined.integrator, "; ".join(refined.reasons))
         second, steps = run_vertex_loop(mi, fit, target, refined, settings, log, normal,
-                                        iterations=max(settings.iterations // 3, 1))
+                                        iterations=max(settings.iterations // 3, 1), sample_seed=sample_seed)
         update_fit(mi, fit, steps, second.best, settings, normal)
         plans.append(refined.as_record())
         warnings += second.warnings
         curve += [row | {"phase": "vertices-refine"} for row in second.curve]
     record = {"light_residual": light_residual, "tilt": tilt.as_record(), "effects": plans, "evidence": evidence.__dict__,
               "warnings": warnings, "stopped": loop.stopped, "final_loss": loop.best_loss,
-              "settings": settings.__dict__, "curve": curve}
+              "settings": settings.__dict__, "sample_seed": sample_seed, "curve": curve}
     return fit, record
 
 
 def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, settings: GeometrySettings,
-                    log: logging.Logger, normal: np.ndarray, iterations: int | None = None) -> tuple[Any, Any]:
+                    log: logging.Logger, normal: np.ndarray, sample_seed: int, iterations: int | None = None) -> tuple[Any, Any]:
     """Large Steps descent on the depth of every vertex, plus the BSDF and (``fit_light``) the light direction.
 
     ``normal`` is the cloth's pinned mean normal, against which the light's
@@ -127,7 +130,7 @@ def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, se
     slopes = tilt_slopes(fit.grid, settings.pin_tilt)
     plane = mi.Float(pinned_plane(fit.grid, settings.pin_tilt).ravel().astype(np.float32))
 
-    def loss_fn(opt, it):
+    def loss_fn(opt, render_seed):
         v = dr.unravel(mi.Point3f, steps.from_differential(opt["u"]))
         z = pinned_depth(v.z, xy.x, xy.y, slopes, dr.sum) + plane
         params[BSDF_KEYS["vertices"]] = dr.ravel(mi.Point3f(xy.x, xy.y, z))
@@ -135,12 +138,13 @@ def run_vertex_loop(mi: ModuleType, fit: FitScene, target: Target, plan: Any, se
         if settings.fit_light:
             apply_light(mi, params, fit.light, opt["light"], normal)
         params.update()
-        return image_loss(mi, render(mi, scene, params, settings.spp, it), target)
+        return image_loss(mi, render(mi, scene, params, settings.spp, render_seed), target)
 
     initial = {"u": u0} | material_latents(fit.material, settings.min_roughness)
     if settings.fit_light:
         initial["light"] = np.zeros(2, dtype=np.float32)
-    loop_settings = LoopSettings(iterations if iterations is not None else settings.iterations, settings.learning_rate)
+    loop_settings = LoopSettings(iterations if iterations is not None else settings.iterations, settings.learning_rate,
+                                 sample_seed=sample_seed)
     return optimise(mi, initial, loss_fn, loop_settings, log, "geometry"), steps
 
 

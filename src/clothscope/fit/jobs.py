@@ -104,12 +104,12 @@ def _continue_fit(previous_dir: str, prepared_dir: str, stage: str, variant: str
 
 
 def geometry_job(prepared_dir: str, out_dir: str, settings: GeometrySettings, variant: str, threads: int,
-                 full_effects: bool, log: logging.Logger) -> dict[str, Any]:
-    """``fit_geometry`` for one image."""
+                 full_effects: bool, log: logging.Logger, sample_seed: int) -> dict[str, Any]:
+    """``fit_geometry`` for one image (``sample_seed``: the config's ``fit.sample_seed``)."""
     def body(tmp: Path) -> dict[str, Any]:
         photo = load_prepared(prepared_dir)
         mi = mitsuba_for(variant, threads)
-        fit, record = fit_geometry(mi, photo, settings, full_effects, log)
+        fit, record = fit_geometry(mi, photo, settings, full_effects, log, sample_seed)
         curve = record.pop("curve")
         return _write_common(tmp, mi, fit, photo, curve, record, None, None)
 
@@ -117,13 +117,13 @@ def geometry_job(prepared_dir: str, out_dir: str, settings: GeometrySettings, va
 
 
 def material_job(prepared_dir: str, geometry_dir: str, out_dir: str, settings: MaterialSettings, variant: str,
-                 threads: int, full_effects: bool, log: logging.Logger) -> dict[str, Any]:
-    """``fit_material`` for one image."""
+                 threads: int, full_effects: bool, log: logging.Logger, sample_seed: int) -> dict[str, Any]:
+    """``fit_material`` for one image (``sample_seed``: the config's ``fit.sample_seed``)."""
     def body(tmp: Path) -> dict[str, Any]:
         fit, photo, mi, plan = _continue_fit(geometry_dir, prepared_dir, "material", variant, threads, full_effects, log)
-        fit.material, loop = fit_material(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log)
+        fit.material, loop = fit_material(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log, sample_seed)
         record = {"effects": [plan.as_record()], "warnings": loop.warnings, "stopped": loop.stopped,
-                  "final_loss": loop.best_loss, "settings": settings.__dict__, "material": fit.material.as_dict()}
+                  "final_loss": loop.best_loss, "settings": settings.__dict__, "sample_seed": sample_seed, "material": fit.material.as_dict()}
         write_json(tmp / MATERIAL_FILE, {"material": fit.material.as_dict(), "effects": [plan.as_record()],
                                            "warnings": loop.warnings})
         return _write_common(tmp, mi, fit, photo, [r | {"phase": "material"} for r in loop.curve], record, None, None)
@@ -132,14 +132,14 @@ def material_job(prepared_dir: str, geometry_dir: str, out_dir: str, settings: M
 
 
 def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: NormalSettings, variant: str,
-                threads: int, full_effects: bool, log: logging.Logger) -> dict[str, Any]:
-    """``fit_normals`` for one image: normal map, height map, preview and the refined BSDF."""
+                threads: int, full_effects: bool, log: logging.Logger, sample_seed: int) -> dict[str, Any]:
+    """``fit_normals`` for one image: normal map, height map, preview and the refined BSDF (``sample_seed``: ``fit.sample_seed``)."""
     def body(tmp: Path) -> dict[str, Any]:
         fit, photo, mi, plan = _continue_fit(material_dir, prepared_dir, "normals", variant, threads, full_effects, log)
         colour = choose_colour_model(settings.colour_model, photo.image, settings.texture, fit.margin)
         log.info("colour model: %s", colour.as_record())
         height, fit.material, loops, shade = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, settings,
-                                                         log, colour)
+                                                         log, colour, sample_seed)
         normals = height_to_normals_np(height).astype(np.float32)
         write_exr(tmp / NORMAL_FILE, normals)
         write_exr(tmp / HEIGHT_FILE, np.repeat(height[..., None], 3, axis=2).astype(np.float32))
@@ -149,7 +149,7 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
         texels_per_pixel = settings.texture / (photo.resolution * (1 + fit.margin))
         record = {"effects": [plan.as_record()], "warnings": [w for loop in loops for w in loop.warnings],
                   "stopped": [loop.stopped for loop in loops], "final_loss": min(loop.best_loss for loop in loops),
-                  "settings": settings.__dict__, "material": fit.material.as_dict(), "texels_per_pixel": texels_per_pixel,
+                  "settings": settings.__dict__, "sample_seed": sample_seed, "material": fit.material.as_dict(), "texels_per_pixel": texels_per_pixel,
                   "colour_model": colour.as_record()}
         write_json(tmp / MATERIAL_FILE, {"material": fit.material.as_dict(), "effects": [plan.as_record()],
                                            "refined_jointly_with_normal_map": True, "texels_per_pixel": texels_per_pixel,

@@ -43,6 +43,7 @@ class LoopSettings:
     keep: str = "best"  # "best": lowest noisy loss; "last": the final iterate (see the module docstring)
     uniform: bool = False  # Uniform Adam (Nicolet et al. 2021): one second moment, the largest, per variable
     rates: dict[str, float] = field(default_factory=dict)  # variable -> its own learning rate, halved on restarts too
+    sample_seed: int = 0  # the config's fit.sample_seed: iteration i renders with render_seed(sample_seed, i)
 
     def __post_init__(self) -> None:
         if self.keep not in ("best", "last"):
@@ -77,23 +78,34 @@ def adam(mi: Any, values: Variables, settings: LoopSettings, lr: float) -> Any:
     return opt
 
 
+def render_seed(sample_seed: int, iteration: int) -> int:
+    """The render seed of ``iteration`` under the config's ``fit.sample_seed``; different ``sample_seed`` never meet.
+
+    Iterations stay below 5000 (the schema's bound), and :func:`render` takes the
+    gradient pass's seed 100 003 above the primal one, so a block of a million
+    seeds per ``sample_seed`` keeps every run's primal and gradient seeds apart.
+    """
+    return sample_seed * 1_000_000 + iteration
+
+
 def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int], Any], settings: LoopSettings,
              log: logging.Logger, name: str) -> LoopResult:
-    """Minimise ``loss_fn(variables, iteration)`` with Adam from ``initial``.
+    """Minimise ``loss_fn(variables, seed)`` with Adam from ``initial``; ``seed`` is the iteration's render seed.
 
     Parameters
     ----------
     mi : the Mitsuba module (variant set).
     initial : name -> flat float32 array of each optimised variable.
     loss_fn : builds the scene from the optimiser's variables (a dict-like of
-        differentiable arrays), renders and returns a scalar differentiable loss.
+        differentiable arrays), renders with the given seed and returns a scalar
+        differentiable loss.
     """
     lr = settings.learning_rate
     opt = adam(mi, initial, settings, lr)
     result = LoopResult(best={k: v.copy() for k, v in initial.items()}, best_loss=math.inf)
     restarts, since_progress, started = 0, 0, time.perf_counter()
     for it in range(settings.iterations):
-        loss = loss_fn(opt, it)
+        loss = loss_fn(opt, render_seed(settings.sample_seed, it))
         value = float(loss.array[0] if hasattr(loss, "array") else loss[0])
         blow_up = not math.isfinite(value) or (math.isfinite(result.best_loss) and value > settings.climb_factor * result.best_loss)
         if blow_up:

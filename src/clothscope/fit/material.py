@@ -61,16 +61,19 @@ def apply_material(mi: ModuleType, params: Any, latents: Any, min_roughness: flo
 
 
 def fit_material(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: MaterialSettings,
-                 log: logging.Logger) -> tuple[Material, Any]:
-    """Fit the BSDF of ``fit`` (geometry fixed) to ``target``; returns the material and the loop result."""
+                 log: logging.Logger, sample_seed: int) -> tuple[Material, Any]:
+    """Fit the BSDF of ``fit`` (geometry fixed) to ``target``; returns the material and the loop result.
+
+    ``sample_seed`` is the config's ``fit.sample_seed`` (which render samples the steps draw).
+    """
     scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), settings.sampler, sample_border=plan.projective)
     params = mi.traverse(scene)
 
-    def loss_fn(opt, it):
+    def loss_fn(opt, render_seed):
         apply_material(mi, params, opt, settings.min_roughness)
         params.update()
-        return image_loss(mi, render(mi, scene, params, settings.spp, it), target)
+        return image_loss(mi, render(mi, scene, params, settings.spp, render_seed), target)
 
     loop = optimise(mi, material_latents(fit.material, settings.min_roughness), loss_fn,
-                    LoopSettings(settings.iterations, settings.learning_rate), log, "material")
+                    LoopSettings(settings.iterations, settings.learning_rate, sample_seed=sample_seed), log, "material")
     return material_from_latents(loop.best, settings.min_roughness), loop

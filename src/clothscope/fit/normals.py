@@ -220,10 +220,11 @@ def albedo_texture(mi: ModuleType, color_latent: Any, size: int, shade_latent: A
 
 
 def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: NormalSettings,
-                log: logging.Logger, colour: ColourModel | None = None) -> tuple[np.ndarray, Material, list[Any], np.ndarray | None]:
+                log: logging.Logger, colour: ColourModel | None, sample_seed: int) -> tuple[np.ndarray, Material, list[Any], np.ndarray | None]:
     """Fit the height map (and shade), then with the BSDF jointly; returns height, material, loop results, shade.
 
     ``colour``: the base colour's model (:mod:`.colour`); its layout texture must be ``settings.texture`` texels wide.
+    ``sample_seed`` is the config's ``fit.sample_seed`` (which render samples the steps draw).
     """
     size = settings.texture
     shaded = settings.albedo_weight > 0
@@ -241,7 +242,7 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     fixed_arrays = {k: mi.Float(v) for k, v in fixed.items()}  # device copies made once, used while the BSDF is held
     steps = HeightSteps(size, settings.large_steps_lambda) if settings.large_steps_lambda > 0 else None
 
-    def loss_fn(opt, it):
+    def loss_fn(opt, render_seed):
         height = height_of(steps, opt["height"])
         params[BSDF_KEYS["normalmap"]] = normal_texture(mi, height, neighbours, size)
         latents = {k: opt[k] if k in opt else fixed_arrays[k] for k in fixed}
@@ -250,7 +251,7 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
             params[BSDF_KEYS["albedo"]] = albedo_texture(mi, latents["color"], size, opt["shade"] if shaded else None, layout,
                                                          cavity_factor(mi, height, ring, settings.cavity) if cavity else None)
         params.update()
-        loss = image_loss(mi, render(mi, scene, params, settings.spp, it, settings.spp_grad), target)
+        loss = image_loss(mi, render(mi, scene, params, settings.spp, render_seed, settings.spp_grad), target)
         if settings.smoothness > 0:
             loss = loss + settings.smoothness * dr.mean(dr.square(curvature(mi, height, neighbours)))
         if shaded:
@@ -264,7 +265,7 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
         height0["shade"] = np.full(size * size, SHADE_LATENT0, dtype=np.float32)
     uniform = steps is not None
     first = optimise(mi, height0, loss_fn, LoopSettings(settings.iterations, settings.learning_rate, settings.patience,
-                                                        settings.min_improvement, uniform=uniform), log, "normals")
+                                                        settings.min_improvement, uniform=uniform, sample_seed=sample_seed), log, "normals")
     joint_start = first.best | fixed
     heights = lambda latents: np.asarray(latents["height"] if steps is None else steps.solve(latents["height"]),  # noqa: E731
                                          dtype=np.float64).reshape(size, size)
@@ -275,7 +276,7 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     # roughness stops drifting, and the lowest noisy loss would favour rough lobes (see clothscope.fit.loop)
     second = optimise(mi, joint_start, loss_fn, LoopSettings(settings.joint_iterations, settings.joint_learning_rate,
                                                              keep="last", uniform=uniform,
-                                                             rates={"height": settings.joint_height_learning_rate}),
+                                                             rates={"height": settings.joint_height_learning_rate}, sample_seed=sample_seed),
                      log, "normals+bsdf")
     best = second.best if second.best_loss <= first.best_loss else joint_start
     material = material_from_latents({k: best[k] for k in fixed}, settings.min_roughness)

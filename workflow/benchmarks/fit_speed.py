@@ -1,0 +1,96 @@
+"""Benchmark: fit time per image of fit settings side by side, in alternating rounds on one machine.
+
+Each variant is a preset plus an overlay of knobs. Every round fits the same
+images from their prepared photos through the real workflow (all three stages,
+two images side by side on two cores, one Dr.Jit thread each, as the default
+profile runs them), into an emptied folder per variant; the variants' order
+reverses every round, so a drift in the machine's speed falls on all of them
+alike. Seconds and peak memory come from the rules' ``benchmark:`` files.
+
+    .venv/bin/python workflow/benchmarks/fit_speed.py [--variants default,lean,fast] [--images ...] [--rounds 2]
+
+Writes ``<out>/fit_speed.csv`` (one row per image, variant and round) and
+``<out>/fit_speed.md`` (medians per variant and each variant's time as a
+fraction of the first one's).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+from pathlib import Path
+
+import pandas as pd
+from harness import ROOT, STAGES, TWO_PER_CLASS, publish, seed_prepared, snakemake, stage_benchmarks, write_sheet
+
+#: variant -> (preset, overlay of knobs)
+VARIANTS: dict[str, tuple[str, dict]] = {
+    "default": ("default", {}),
+    # fewer material and joint steps, a 1-sample gradient pass: rejected on a confirmation set (docs/design.md)
+    "lean": ("default", {"fit": {"material": {"iterations": 30}, "normals": {"joint_iterations": 120, "spp_grad": 1}}}),
+    "fast": ("fast", {}),
+}
+
+
+def fit_variant(name: str, images: list[str], folder: Path) -> pd.DataFrame:
+    """Fit ``images`` with variant ``name`` into the emptied ``folder``; one row of stage seconds and memory per image."""
+    preset, overlay = VARIANTS[name]
+    shutil.rmtree(folder, ignore_errors=True)
+    folder.mkdir(parents=True)
+    for image in images:
+        seed_prepared(folder, image)
+    (folder / "overlay.yaml").write_text(json.dumps(overlay))
+    sheet = write_sheet(images, folder / "samples.tsv")
+    snakemake(["--configfile", "config/config.yaml", str(folder / "overlay.yaml"), "--quiet", "all", "--config",
+               f"preset={preset}", f"samples={sheet}", f"results={folder}", "--",
+               *[str(folder / "fit" / image / "normals") for image in images]], capture=True)
+    rows = []
+    for image in images:
+        row: dict[str, float | str] = {"image_id": image, "variant": name}
+        for stage, (seconds, rss) in stage_benchmarks(folder, image).items():
+            row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = seconds, rss
+        row["fit_s"] = sum(float(row[f"{stage}_s"]) for stage in STAGES)
+        row["max_rss_mb"] = max(float(row[f"{stage}_max_rss_mb"]) for stage in STAGES)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def summary(table: pd.DataFrame, names: list[str], images: int, rounds: int) -> str:
+    """Markdown: medians per variant and each one's median fit time as a fraction of the first variant's."""
+    medians = table.groupby("variant")[[f"{stage}_s" for stage in STAGES] + ["fit_s"]].median().reindex(names)
+    medians["max_rss_mb"] = table.groupby("variant")["max_rss_mb"].max().reindex(names)
+    medians[f"fit_s / {names[0]}"] = medians["fit_s"] / medians.loc[names[0], "fit_s"]
+    overlays = [f"- `{name}`: preset `{VARIANTS[name][0]}`, overlay `{json.dumps(VARIANTS[name][1])}`" for name in names]
+    return "\n".join(["# Fit time per image, variants side by side", "",
+                      f"{images} images, {rounds} rounds (the variants' order reversed every round); all three fit stages "
+                      "through snakemake, two images side by side on two cores, one Dr.Jit thread each. "
+                      "Medians over images and rounds of the rules' `benchmark:` seconds.", "", *overlays, "",
+                      medians.round(3).to_markdown(), ""])
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--variants", default=",".join(VARIANTS), help=f"any of {', '.join(VARIANTS)}; the first is the reference")
+    parser.add_argument("--images", default=TWO_PER_CLASS)
+    parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--out", default="results/bench/fit_speed")
+    args = parser.parse_args()
+    names, images = args.variants.split(","), args.images.split(",")
+    unknown = sorted(set(names) - set(VARIANTS))
+    if unknown:
+        raise SystemExit(f"fit_speed: error: unknown variant(s) {', '.join(unknown)}; choose from {', '.join(VARIANTS)}")
+    if args.rounds < 1:
+        raise SystemExit(f"fit_speed: error: --rounds must be at least 1, got {args.rounds}")
+    out = (ROOT / args.out).resolve()
+    tables = []
+    for round_ in range(args.rounds):
+        for name in names if round_ % 2 == 0 else names[::-1]:
+            tables.append(fit_variant(name, images, out / "runs" / name).assign(round=round_))
+            print(f"round {round_} {name}: median {tables[-1]['fit_s'].median():.2f} s per image", flush=True)
+    table = pd.concat(tables, ignore_index=True)
+    publish(out, "fit_speed", table, summary(table, names, len(images), args.rounds))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
