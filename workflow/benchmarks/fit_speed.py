@@ -21,13 +21,14 @@ import shutil
 from pathlib import Path
 
 import pandas as pd
+import yaml
 from harness import ROOT, STAGES, TWO_PER_CLASS, publish, seed_prepared, snakemake, stage_benchmarks, write_sheet
 
 #: variant -> (preset, overlay of knobs)
 VARIANTS: dict[str, tuple[str, dict]] = {
     "default": ("default", {}),
     # fewer material and joint steps, a 1-sample gradient pass: rejected on a confirmation set (docs/design.md)
-    "lean": ("default", {"fit": {"material": {"iterations": 30}, "normals": {"joint_iterations": 120, "spp_grad": 1}}}),
+    "lean": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "lean_fit.yaml").read_text())),
     "fast": ("fast", {}),
 }
 

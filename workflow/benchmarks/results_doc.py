@@ -342,6 +342,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Fit time per image, kernel cache cold and warm", ("bench/fit_timing/fit_timing.md",),
                         f"{py}/fit_timing.py"),
         BenchmarkReport("Fit time per image, settings side by side", ("bench/fit_speed/fit_speed.md",), f"{py}/fit_speed.py"),
+        BenchmarkReport("Run-to-run noise and the lean fit", ("bench/run_figures/run_figures.md",),
+                        f"{py}/run_figures.py results results/exp_seed/design results/exp_lean/design results/holdout/run "
+                        "results/exp_lean/holdout results/holdout_confirm/run results/exp_seed/confirm results/exp_lean/confirm "
+                        "results/weaves_confirm/run results/exp_seed/weaves results/exp_lean/weaves"),
         BenchmarkReport("Where a fit job's seconds go", ("bench/job_costs.md",), f"{py}/job_costs.py"),
         BenchmarkReport("The normal-map step: backward pass and freezing", ("bench/backward_pass.md",),
                         f"{py}/backward_pass.py"),
