@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pandas as pd
 import yaml
-from harness import ROOT, STAGES, TWO_PER_CLASS, publish, seed_prepared, snakemake, stage_benchmarks, write_sheet
+from harness import ROOT, STAGES, TWO_PER_CLASS, fit_costs, publish, seed_prepared, snakemake, write_sheet
 
 #: variant -> (preset, overlay of knobs)
 VARIANTS: dict[str, tuple[str, dict]] = {
@@ -45,15 +45,7 @@ def fit_variant(name: str, images: list[str], folder: Path) -> pd.DataFrame:
     snakemake(["--configfile", "config/config.yaml", str(folder / "overlay.yaml"), "--quiet", "all", "--config",
                f"preset={preset}", f"samples={sheet}", f"results={folder}", "--",
                *[str(folder / "fit" / image / "normals") for image in images]], capture=True)
-    rows = []
-    for image in images:
-        row: dict[str, float | str] = {"image_id": image, "variant": name}
-        for stage, (seconds, rss) in stage_benchmarks(folder, image).items():
-            row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = seconds, rss
-        row["fit_s"] = sum(float(row[f"{stage}_s"]) for stage in STAGES)
-        row["max_rss_mb"] = max(float(row[f"{stage}_max_rss_mb"]) for stage in STAGES)
-        rows.append(row)
-    return pd.DataFrame(rows)
+    return pd.DataFrame([{"image_id": image, "variant": name} | fit_costs(folder, image) for image in images])
 
 
 def summary(table: pd.DataFrame, names: list[str], images: int, rounds: int) -> str:

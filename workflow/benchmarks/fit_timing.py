@@ -19,7 +19,7 @@ import tempfile
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, STAGES, SUBSET, publish, snakemake, stage_benchmarks
+from harness import ROOT, SUBSET, fit_costs, publish, snakemake
 
 
 def run_image(image: str, results: Path, overlay: Path, home: str) -> float:
@@ -29,12 +29,7 @@ def run_image(image: str, results: Path, overlay: Path, home: str) -> float:
 
 
 def stage_rows(image: str, results: Path, cache: str, snakemake_s: float) -> dict[str, float | str]:
-    row: dict[str, float | str] = {"image_id": image, "cache": cache, "snakemake_wall_s": round(snakemake_s, 2)}
-    for stage, (seconds, rss) in stage_benchmarks(results, image).items():
-        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = seconds, rss
-    row["fit_s"] = sum(float(row[f"{s}_s"]) for s in STAGES)
-    row["max_rss_mb"] = max(float(row[f"{s}_max_rss_mb"]) for s in STAGES)
-    return row
+    return {"image_id": image, "cache": cache, "snakemake_wall_s": round(snakemake_s, 2)} | fit_costs(results, image)
 
 
 def main() -> int:

@@ -86,3 +86,14 @@ def snakemake(args: list[str], cores: int = 2, home: str | None = None, capture:
 def stage_benchmarks(results: Path, image: str) -> dict[str, tuple[float, float]]:
     """(seconds, peak RSS MB) of each fit stage of ``image`` from the rules' ``benchmark:`` files."""
     return {stage: benchmark_seconds(results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv") for stage in STAGES}
+
+
+def fit_costs(results: Path, image: str) -> dict[str, float]:
+    """Each fit stage's seconds and peak RSS MB of ``image`` (``<stage>_s``, ``<stage>_max_rss_mb``), their sum
+    ``fit_s`` and their maximum ``max_rss_mb``."""
+    row: dict[str, float] = {}
+    for stage, (seconds, rss) in stage_benchmarks(results, image).items():
+        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = seconds, rss
+    row["fit_s"] = sum(row[f"{stage}_s"] for stage in STAGES)
+    row["max_rss_mb"] = max(row[f"{stage}_max_rss_mb"] for stage in STAGES)
+    return row

@@ -19,9 +19,6 @@ from pathlib import Path
 import pandas as pd
 from harness import ROOT, publish, shown
 
-#: fitted feature sets of results/reports/feature_sets.csv reported per run
-FITTED_SETS = ("paper_fitted", "structure_fitted", "structure_brdf_fitted", "texture_brdf_fitted", "auto_fitted")
-
 
 def run_row(run: Path) -> dict[str, float | str]:
     """One run's figures from its fit-accuracy, feature-set and classifier reports."""
@@ -39,8 +36,7 @@ def run_row(run: Path) -> dict[str, float | str]:
         "roughness_error": fits["roughness_error"].median(),
         "period_within_5pct": f"{int((periodic['period_error'] < 0.05).sum())}/{len(periodic)}",
         "normals_s": fits["normals_s"].median()}
-    for name in FITTED_SETS:
-        row[name] = int(sets.loc[name, "correct"]) if name in sets.index else "-"
+    row |= {name: int(correct) for name, correct in sets.loc[sets["sources"] == "fitted", "correct"].items()}
     row["classifier_of_record"] = f"{record['correct']}/{record['n']}"
     return row
 
@@ -50,7 +46,7 @@ def main() -> int:
     parser.add_argument("runs", nargs="+", help="results folders (e.g. results results/seed_1)")
     parser.add_argument("--out", default="results/bench/run_figures")
     args = parser.parse_args()
-    table = pd.DataFrame([run_row((ROOT / run).resolve()) for run in args.runs])
+    table = pd.DataFrame([run_row((ROOT / run).resolve()) for run in args.runs]).fillna("-")
     text = ("# Runs side by side: reconstruction and LOOCV figures\n\n"
             "Medians over fitted images; period within 5% over periodic images; LOOCV counts correct of the "
             "run's images (`results/reports/feature_sets.csv`, classifier of record from `reports/fitted/accuracy.json`).\n\n"
