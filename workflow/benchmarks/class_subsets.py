@@ -17,13 +17,12 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, publish, validated_config
+from harness import ROOT, publish, run_tables, validated_config
 
-from clothscope.classify.feature_sets import classifier_candidates, joined_table
+from clothscope.classify.feature_sets import classifier_candidates, joined_table, joined_tiles
 from clothscope.classify.loocv import loocv
 from clothscope.classify.paper_tables import PAPER_EXPERIMENTS
 from clothscope.features.sources import STATUS_OK
-from clothscope.features.table import read_table
 
 
 def classify_config() -> dict:
@@ -33,14 +32,15 @@ def classify_config() -> dict:
 
 def scored_subsets(results: Path, label: str, settings: dict) -> list[dict]:
     """One row per paper experiment: LOOCV of the classifier of record on those classes' images in ``results``."""
-    tables = {source: read_table(results / "features" / source / "table.parquet") for source in ("fitted", "photo")}
+    tables, tile_tables = run_tables(results)
     table = joined_table(tables)
+    tiles = joined_tiles(tables, tile_tables)
     table = table[table["status"] == STATUS_OK]
     candidates = classifier_candidates(settings["feature_set"], "fitted", table.columns)
     rows = []
     for experiment in PAPER_EXPERIMENTS:
         subset = table[table["fabric_class"].isin(experiment.classes)]
-        result = loocv(subset, [], settings["reg"], select_from=candidates, subspace=settings["subspace"])
+        result = loocv(subset, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles)
         rows.append({"set": label, "experiment": experiment.name, "n": result.n, "correct": result.correct,
                      "accuracy": result.accuracy, "wilson_low": result.wilson_low, "wilson_high": result.wilson_high,
                      "chance": result.chance_uniform,

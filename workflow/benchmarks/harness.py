@@ -36,6 +36,14 @@ def validated_config() -> dict:
     return validate(config, load_schema(SCHEMA_PATH), "config")
 
 
+def run_tables(run: Path, sources: tuple[str, ...] = ("fitted", "photo")) -> tuple[dict[str, pd.DataFrame], dict[str, pd.DataFrame]]:
+    """A run's feature tables by source, and its tile tables (``features/<source>/tiles/table.parquet``) where written."""
+    tables = {s: pd.read_parquet(run / "features" / s / "table.parquet") for s in sources}
+    tiles = {s: pd.read_parquet(run / "features" / s / "tiles" / "table.parquet") for s in sources
+             if (run / "features" / s / "tiles" / "table.parquet").is_file()}
+    return tables, tiles
+
+
 def write_sheet(images: list[str] | None, target: Path) -> Path:
     """Write the rows of ``config/samples.tsv`` for ``images`` (None or ``["all"]``: every row) to ``target``."""
     sheet = pd.read_csv(ROOT / "config" / "samples.tsv", sep="\t", dtype=str, keep_default_na=False)

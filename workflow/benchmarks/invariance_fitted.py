@@ -12,11 +12,12 @@ photo is transformed three ways (:data:`clothscope.evaluate.invariance.PHOTO_TRA
 The transformed photos are prepared, **refitted** and described by the
 workflow (``--config samples=... results=<out>/run``). A prediction counts as
 changed when the model trained on all *other* original images (the main run's
-feature tables) predicts another class for the transformed photo than for the
-original. The model is the configured classifier (``classify.reg`` and
-``classify.subspace``); an ``auto`` set, and ``record`` (the classifier of
-record: ``classify.feature_set`` on fitted maps with the photo beside them),
-choose their columns on those other images as the ``classify`` rule does.
+feature tables, with their tiles, ``features.tiles``) predicts another class
+for the transformed photo than for the original. The model is the configured
+classifier (``classify.reg`` and ``classify.subspace``); an ``auto`` set, and
+``record`` (the classifier of record: ``classify.feature_set`` on fitted maps
+with the photo beside them), choose their columns on those other images as the
+``classify`` rule does.
 Needs the main run's ``fitted`` and ``photo`` feature tables.
 
     .venv/bin/python workflow/benchmarks/invariance_fitted.py [--images a,b|all] [--out results/bench/invariance] [--features-only]
@@ -37,9 +38,16 @@ from pathlib import Path
 
 import pandas as pd
 from class_subsets import classify_config
-from harness import ROOT, publish, snakemake, write_sheet
+from harness import ROOT, publish, run_tables, snakemake, write_sheet
 
-from clothscope.classify.feature_sets import FEATURE_SETS, auto_candidates, classifier_candidates, common_images, joined_features
+from clothscope.classify.feature_sets import (
+    FEATURE_SETS,
+    auto_candidates,
+    classifier_candidates,
+    common_images,
+    joined_features,
+    joined_tiles,
+)
 from clothscope.classify.loocv import choose_columns
 from clothscope.classify.model import predict, train_model
 from clothscope.core.config import schema_defaults
@@ -84,9 +92,11 @@ def candidates_of(feature_set: str, columns: list[str], settings: dict) -> dict[
 
 
 def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], transformed: dict[str, pd.DataFrame],
-                        images: list[str], transform: str, settings: dict) -> dict[str, object]:
-    """Train on all other originals, predict each chosen original and its transformed photo; count changes."""
+                        images: list[str], transform: str, settings: dict,
+                        tile_tables: dict[str, pd.DataFrame]) -> dict[str, object]:
+    """Train on all other originals (and their tiles), predict each chosen original and its transformed photo; count changes."""
     spec = next(s for s in FEATURE_SETS if s.name == (RECORD_SOURCES if feature_set == "record" else feature_set))
+    tiles = joined_tiles({s: originals[s] for s in spec.sources}, tile_tables)
     frame, columns = joined_features(spec, originals, common_images({s: originals[s] for s in spec.sources}))
     if feature_set == "record":
         columns = [c for c in frame.columns if c.split(".", 1)[0] in spec.sources]
@@ -100,7 +110,8 @@ def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], tr
         original = t_id.rsplit("__", 1)[0]
         others = frame[frame["image_id"] != original]
         candidates = candidates_of(feature_set, columns, settings)
-        model = train_model(others, candidates[choose_columns(others, candidates, reg, subspace)[0]], reg, subspace)
+        chosen = choose_columns(others, candidates, reg, subspace, tiles)[0]
+        model = train_model(others, candidates[chosen], reg, subspace, tiles)
         pair = pd.concat([frame[frame["image_id"] == original], t_frame[t_frame["image_id"] == t_id]], ignore_index=True)
         before, after = predict(model, pair)["predicted_class"]
         changed += int(before != after)
@@ -125,10 +136,10 @@ def main() -> int:
     overlay = ["--configfile", "config/config.yaml", args.overlay] if args.overlay else []
     seconds = snakemake([*overlay, "--config", f"samples={out / 'samples.tsv'}", f"results={run}", "--quiet", *reuse, "all", "--",
                          *(str(run / "features" / s / "table.parquet") for s in ("fitted", "photo"))])
-    originals = {s: pd.read_parquet(ROOT / "results" / "features" / s / "table.parquet") for s in ("fitted", "photo")}
-    transformed = {s: pd.read_parquet(run / "features" / s / "table.parquet") for s in ("fitted", "photo")}
+    originals, tiles = run_tables(ROOT / "results")
+    transformed = run_tables(run)[0]
     images = list(sheet["image_id"])
-    table = pd.DataFrame([changed_predictions(f, originals, transformed, images, t, settings)
+    table = pd.DataFrame([changed_predictions(f, originals, transformed, images, t, settings, tiles)
                           for f in SETS for t in PHOTO_TRANSFORMS])
     lines = ["# Invariance of predictions to the photo's rotation, zoom and colour (refitted)", "",
              f"{len(images)} images x {len(PHOTO_TRANSFORMS)} transformations, prepared, fitted and described by the "

@@ -18,27 +18,27 @@ from pathlib import Path
 
 import pandas as pd
 from class_subsets import classify_config
-from harness import ROOT, publish, shown
+from harness import ROOT, publish, run_tables, shown
 
-from clothscope.classify.feature_sets import PHOTO_GROUPS, classifier_candidates, joined_table
+from clothscope.classify.feature_sets import PHOTO_GROUPS, classifier_candidates, joined_table, joined_tiles
 from clothscope.classify.loocv import loocv
 from clothscope.features.sources import STATUS_OK
-from clothscope.features.table import read_table
 
 LISTS = ("without the photo's own sets", "with them (default)")
 
 
 def run_rows(run: Path) -> list[dict]:
     """The classifier of record's LOOCV on one run, under each candidate list."""
-    tables = {source: read_table(run / "features" / source / "table.parquet") for source in ("fitted", "photo")}
+    tables, tile_tables = run_tables(run)
     joined = joined_table(tables)
+    tiles = joined_tiles(tables, tile_tables)
     ok = joined[joined["status"] == STATUS_OK]
     everything = classifier_candidates("auto", "fitted", joined.columns)
     without = {name: columns for name, columns in everything.items() if name not in PHOTO_GROUPS}
     settings = classify_config()
     rows = []
     for label, candidates in zip(LISTS, (without, everything)):
-        result = loocv(ok, [], settings["reg"], select_from=candidates, subspace=settings["subspace"])
+        result = loocv(ok, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles)
         chosen = ", ".join(f"{name} {count}" for name, count in sorted(result.selected.items(), key=lambda kv: -kv[1]))
         rows.append({"run": shown(run), "candidates": label,
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy, "folds_chose": chosen})

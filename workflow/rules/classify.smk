@@ -13,6 +13,10 @@ rule classify:
         photo=lambda wildcards: (
             [] if wildcards.source == "photo" else feature_table("photo")
         ),
+        tiles=tile_table("{source}"),
+        photo_tiles=lambda wildcards: (
+            [] if wildcards.source == "photo" else tile_table("photo")
+        ),
     output:
         reports=[classify_report(name) for name in REPORT_FILES],
         model_arrays=os.path.join(RESULTS, "models", "{source}", "model.npz"),
@@ -39,6 +43,7 @@ rule classify:
 rule feature_sets:
     input:
         **{source: feature_table(source) for source in report_sources()},
+        **{f"{source}_tiles": tile_table(source) for source in report_sources()},
     output:
         md=report(
             feature_set_outputs()[0],

@@ -158,6 +158,18 @@ def feature_table(source):
     return features_path(source, "table.parquet")
 
 
+def tile_rows(wildcards):
+    return [
+        features_path(wildcards.source, os.path.join("tiles", f"{image}.parquet"))
+        for image in IMAGE_IDS
+    ]
+
+
+def tile_table(source):
+    """Every image's tile rows (features.tiles): extra training rows for the classifier."""
+    return features_path(source, os.path.join("tiles", "table.parquet"))
+
+
 def reports_path(source, name):
     return os.path.join(RESULTS, "reports", source, name)
 

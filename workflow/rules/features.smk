@@ -1,5 +1,6 @@
 # Stage 4: Fourier features of each image's normal map (paper section 3.4), one cached
-# one-row Parquet file per image and source, then the feature table (a concatenation).
+# one-row Parquet file per image and source (and one row per tile of its map, tiles/), then the feature
+# table and the tile table (concatenations).
 # {source} is the normal source: "fitted" (rule fit_normals) or "truth" (synthetic ground truth).
 ruleorder: feature_table > features
 
@@ -9,6 +10,7 @@ rule features:
         unpack(feature_inputs),
     output:
         row=features_path("{source}", "{image}.parquet"),
+        tiles=features_path("{source}", os.path.join("tiles", "{image}.parquet")),
         plot=report(
             features_path("{source}", "{image}.png"),
             caption="../report/spectrum.rst",
@@ -38,9 +40,11 @@ rule features:
 
 rule feature_table:
     input:
-        feature_rows,
+        rows=feature_rows,
+        tiles=tile_rows,
     output:
-        features_path("{source}", "table.parquet"),
+        table=features_path("{source}", "table.parquet"),
+        tiles=tile_table("{source}"),
     log:
         os.path.join(RESULTS, "logs", "feature_table", "{source}.log"),
     conda:

@@ -4,6 +4,10 @@ import os
 from clothscope.classify.job import classify_job
 from clothscope.core.joblog import job_log
 
+tile_paths = {snakemake.wildcards.source: snakemake.input.tiles}
+if snakemake.input.get("photo_tiles"):
+    tile_paths["photo"] = snakemake.input.photo_tiles
+
 with job_log(snakemake.log[0], "classify") as log:
     classify_job(
         snakemake.input.table,
@@ -18,4 +22,5 @@ with job_log(snakemake.log[0], "classify") as log:
         settings=snakemake.params.settings,
         comparison_csv=snakemake.input.get("comparison") or None,
         photo_table_path=snakemake.input.get("photo") or None,
+        tile_paths=tile_paths,
     )

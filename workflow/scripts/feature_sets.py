@@ -3,12 +3,14 @@ from clothscope.classify.feature_sets import feature_sets_job
 from clothscope.core.joblog import job_log
 
 with job_log(snakemake.log[0], "feature_sets") as log:
+    inputs = dict(snakemake.input.items())
     feature_sets_job(
-        dict(snakemake.input.items()),
+        {source: path for source, path in inputs.items() if not source.endswith("_tiles")},
         snakemake.params.reg,
         snakemake.params.subspace,
         snakemake.params.fitted_set,
         snakemake.output.md,
         snakemake.output.csv,
         log,
+        tile_paths={source[: -len("_tiles")]: path for source, path in inputs.items() if source.endswith("_tiles")},
     )

@@ -13,4 +13,5 @@ with job_log(snakemake.log[0], "features") as log:
         snakemake.output.row,
         snakemake.output.plot,
         log,
+        tiles_path=snakemake.output.tiles,
     )

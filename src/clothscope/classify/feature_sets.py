@@ -21,6 +21,7 @@ from clothscope.classify.loocv import loocv
 from clothscope.core.atomic import write_text
 from clothscope.features.sources import STATUS_OK
 from clothscope.features.structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS
+from clothscope.features.table import TILE_FEATURES
 
 #: Column groups of a feature table.
 BRDF_COLUMNS = ("roughness", "specular_norm")
@@ -141,14 +142,16 @@ def _unscored_row(feature_set: FeatureSet, reason: str) -> dict[str, object]:
 
 
 def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], images: list[str],
-                      reg: float | str, subspace: str) -> tuple[dict[str, object], pd.Series | None]:
+                      reg: float | str, subspace: str,
+                      tile_tables: dict[str, pd.DataFrame] | None = None) -> tuple[dict[str, object], pd.Series | None]:
     """LOOCV of one feature set on ``images``: a report row (``status`` says why when not scored) and,
     when scored, which images it classified correctly (boolean, by image id)."""
     try:
         frame, columns = joined_features(feature_set, tables, images)
         auto = [source for source, group in feature_set.parts if group == "auto"]
+        tiles = joined_tiles({source: tables[source] for source in feature_set.sources}, tile_tables)
         result = loocv(frame, columns, reg, select_from=auto_candidates(columns, auto[0]) if auto else None,
-                       subspace=subspace)
+                       subspace=subspace, tiles=tiles)
     except (KeyError, ValueError) as err:
         return _unscored_row(feature_set, str(err)), None
     chosen = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
@@ -201,8 +204,10 @@ def paired_with_best_photo(report: pd.DataFrame, hits: dict[str, pd.Series]) -> 
     return out
 
 
-def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subspace: str) -> pd.DataFrame:
-    """Every feature set whose sources are all in ``tables``, scored on the images usable in all of them.
+def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subspace: str,
+                         tile_tables: dict[str, pd.DataFrame] | None = None) -> pd.DataFrame:
+    """Every feature set whose sources are all in ``tables``, scored on the images usable in all of them
+    (each fold also trains on the tiles of its training images, :func:`joined_tiles`).
 
     ``truth`` is left out of the common image set when some of those images
     have no ground truth (a photo of the user's own); its sets then say so.
@@ -217,7 +222,7 @@ def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subs
         if "truth" in feature_set.sources and not set(images) <= set(map(str, usable(tables["truth"]).index)):
             rows.append(_unscored_row(feature_set, "some images have no ground truth"))
             continue
-        row, right = score_feature_set(feature_set, tables, images, reg, subspace)
+        row, right = score_feature_set(feature_set, tables, images, reg, subspace, tile_tables)
         rows.append(row)
         if right is not None:
             hits[feature_set.name] = right
@@ -292,10 +297,12 @@ def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str], su
 
 
 def feature_sets_job(table_paths: dict[str, str], reg: float | str, subspace: str, fitted_set: str,
-                     md_path: str | os.PathLike[str], csv_path: str | os.PathLike[str], log: object = None) -> pd.DataFrame:
-    """The ``feature_sets`` rule: read each source's feature table, compare, write Markdown and CSV."""
+                     md_path: str | os.PathLike[str], csv_path: str | os.PathLike[str], log: object = None,
+                     tile_paths: dict[str, str] | None = None) -> pd.DataFrame:
+    """The ``feature_sets`` rule: read each source's feature table (and tile table), compare, write Markdown and CSV."""
     tables = {source: pd.read_parquet(path) for source, path in table_paths.items()}
-    report = compare_feature_sets(tables, reg, subspace)
+    tile_tables = {source: pd.read_parquet(path) for source, path in (tile_paths or {}).items()}
+    report = compare_feature_sets(tables, reg, subspace, tile_tables)
     line = inverse_rendering_gain(report, fitted_set)
     write_text(Path(csv_path), report.to_csv(index=False, lineterminator="\n", float_format="%.6f"))
     write_text(Path(md_path), report_markdown(report, line, list(tables), subspace))
@@ -324,6 +331,31 @@ def joined_table(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
         frame.loc[failing, "status"] = status[failing]
         frame.loc[failing, "reason"] = [f"{source}: {r}" for r in reasons[failing]]
     return frame
+
+
+def joined_tiles(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.DataFrame] | None) -> pd.DataFrame | None:
+    """Tile rows laid out as :func:`joined_table` of ``tables``: each tile is its image's joined row with every
+    source's :data:`~clothscope.features.table.TILE_FEATURES` taken from that source's tile of the same index.
+
+    ``None`` when some source has no tiles (no tile table, or ``features.tiles.grid`` 0): the classifier
+    then trains on whole images only.
+    """
+    if not tile_tables or any(tile_tables.get(source) is None or tile_tables[source].empty for source in tables):
+        return None
+    images = joined_table(tables).assign(image_id=lambda t: t["image_id"].astype(str)).set_index("image_id")
+    keys = None
+    for source in tables:
+        tiles = tile_tables[source].assign(image_id=lambda t: t["image_id"].astype(str))
+        columns = [c for c in TILE_FEATURES if c in tiles.columns]
+        part = tiles[["image_id", "tile", *columns]].rename(columns={c: f"{source}.{c}" for c in columns})
+        keys = part if keys is None else keys.merge(part, on=["image_id", "tile"], how="inner")
+    keys = keys[keys["image_id"].isin(images.index)].reset_index(drop=True)
+    if keys.empty:
+        return None
+    rows = images.loc[keys["image_id"]].reset_index()
+    described = keys.drop(columns=["image_id"])
+    return pd.concat([rows.drop(columns=described.columns.intersection(rows.columns)), described], axis=1)[
+        [*rows.columns, "tile"]]
 
 
 def classifier_candidates(feature_set: str, maps: str, columns: list[str] | pd.Index) -> dict[str, list[str]]:

@@ -20,7 +20,7 @@ from typing import Any
 import pandas as pd
 
 from clothscope import __version__
-from clothscope.classify.feature_sets import classifier_candidates, inverse_rendering_gain, joined_table
+from clothscope.classify.feature_sets import classifier_candidates, inverse_rendering_gain, joined_table, joined_tiles
 from clothscope.classify.loocv import choose_columns, loocv
 from clothscope.classify.model import predict, save_model, save_untrained, train_model
 from clothscope.classify.outputs import (
@@ -74,7 +74,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
                  log: Any = None, *, feature_set: str,
                  comparison_csv: str | os.PathLike[str] | None = None,
                  photo_table_path: str | os.PathLike[str] | None = None, subspace: str,
-                 settings: dict[str, Any] | None = None) -> dict[str, Any]:
+                 settings: dict[str, Any] | None = None,
+                 tile_paths: dict[str, str | os.PathLike[str]] | None = None) -> dict[str, Any]:
     """Run the classifier stage for one normal source.
 
     Parameters
@@ -105,23 +106,27 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     settings
         The ``prepare``, ``fit``, ``features`` and ``variant`` config the table's images were
         processed with; recorded in the model so that ``clothscope predict`` processes a photo alike.
+    tile_paths
+        Each source's tile table (``features/<source>/tiles/table.parquet``): extra training rows
+        (:func:`clothscope.classify.feature_sets.joined_tiles`); without them, whole images only.
     """
     tables = {source: read_table(table_path)}
     if photo_table_path and source != "photo":
         tables["photo"] = read_table(photo_table_path)
     table = joined_table(tables)
+    tiles = joined_tiles(tables, {s: read_table(path) for s, path in (tile_paths or {}).items()})
     candidates = classifier_candidates(feature_set, source, table.columns)
     ok = table[table["status"] == STATUS_OK]
     labelled, queries = split_labelled(ok)
     provenance = _provenance(table)
     problems = []
     try:
-        result = loocv(ok, [], reg, select_from=candidates, subspace=subspace)
+        result = loocv(ok, [], reg, select_from=candidates, subspace=subspace, tiles=tiles)
     except ValueError as err:  # too few labelled classes or images: no scores, the run goes on
         result, problems = None, [f"LOOCV not run: {str(err).splitlines()[0]}"]
     try:
-        chosen = choose_columns(ok, candidates, reg, subspace)[0]
-        model = train_model(ok, candidates[chosen], reg, subspace)
+        chosen = choose_columns(ok, candidates, reg, subspace, tiles)[0]
+        model = train_model(ok, candidates[chosen], reg, subspace, tiles)
     except ValueError as err:
         model = None
         problems.append(f"no model trained: {str(err).splitlines()[0]}")

@@ -30,6 +30,7 @@ from clothscope.classify.rows import (
     labelled_data,
     posterior_column,
     split_labelled,
+    with_tiles,
 )
 
 
@@ -105,13 +106,18 @@ def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, flo
 INNER_FOLDS = 5
 
 
-def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto", subspace: str = "none") -> float:
-    """Accuracy of :func:`make_qda` by stratified k-fold (k = :data:`INNER_FOLDS` or the smallest class) over labelled rows."""
-    labelled, _, notes, _, _, X, y = labelled_data(table, columns, MIN_LOOCV_PER_CLASS, "choosing a feature set")
+def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto", subspace: str = "none",
+                   tiles: pd.DataFrame | None = None) -> float:
+    """Accuracy of :func:`make_qda` by stratified k-fold (k = :data:`INNER_FOLDS` or the smallest class) over labelled rows.
+
+    Each fold also trains on the ``tiles`` of its training images (:func:`with_tiles`) and scores whole images.
+    """
+    labelled, _, notes, used, _, X, y = labelled_data(table, columns, MIN_LOOCV_PER_CLASS, "choosing a feature set")
+    ids = labelled["image_id"].astype(str).to_numpy()
     folds = StratifiedKFold(n_splits=min(INNER_FOLDS, int(pd.Series(y).value_counts().min())), shuffle=True, random_state=0)
     correct = 0
     for train, test in folds.split(X, y):
-        model = fit_qda(reg, X[train], y[train], notes, subspace)
+        model = fit_qda(reg, *with_tiles(X[train], y[train], ids[train], tiles, used), notes, subspace)
         correct += int((model.predict(X[test]) == y[test]).sum())
     return correct / len(y)
 
@@ -139,7 +145,7 @@ def _distinct_candidates(table: pd.DataFrame, candidates: dict[str, list[str]]) 
 
 
 def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str = "auto",
-                   subspace: str = "none") -> tuple[str, dict[str, float]]:
+                   subspace: str = "none", tiles: pd.DataFrame | None = None) -> tuple[str, dict[str, float]]:
     """The candidate column set with the highest :func:`inner_accuracy` on ``table`` (ties: the first listed), and every score.
 
     A single candidate is returned as it is, unscored.
@@ -157,7 +163,7 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
     problems = []
     for name, columns in _distinct_candidates(table, candidates).items():
         try:
-            scores[name] = inner_accuracy(table, columns, reg, subspace)
+            scores[name] = inner_accuracy(table, columns, reg, subspace, tiles)
         except ValueError as err:
             problems.append(f"{name}: {str(err).splitlines()[0]}")
     if not scores:
@@ -167,7 +173,8 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
 
 
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
-          select_from: dict[str, list[str]] | None = None, subspace: str = "none") -> LoocvResult:
+          select_from: dict[str, list[str]] | None = None, subspace: str = "none",
+          tiles: pd.DataFrame | None = None) -> LoocvResult:
     """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
 
     Each labelled image is classified by a model fitted (scaler included) on
@@ -191,6 +198,9 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         the choice (``selected`` counts the picks).
     subspace
         Feature space of the QDA (:func:`make_qda`).
+    tiles
+        Tile rows (:func:`clothscope.classify.feature_sets.joined_tiles`): each fold also trains on the
+        tiles of its training images, never on those of the image it scores, which is scored by its own row.
 
     Returns
     -------
@@ -219,14 +229,14 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         train = np.arange(n) != i
         if select_from:
             rows = labelled.iloc[np.flatnonzero(train)]
-            name, _ = choose_columns(rows, select_from, reg, subspace)
+            name, _ = choose_columns(rows, select_from, reg, subspace, tiles)
             selected[name] = selected.get(name, 0) + 1
-            model = train_model(rows, select_from[name], reg, subspace)
+            model = train_model(rows, select_from[name], reg, subspace, tiles)
             if model.classes != classes:
                 raise ValueError(f"fold {ids[i]}: fitted classes {model.classes} differ from {classes}")
             proba[i] = predict(model, labelled.iloc[[i]])[[posterior_column(c) for c in classes]].to_numpy(float)[0]
             continue
-        model = fit_qda(reg, X[train], y[train], notes, subspace)
+        model = fit_qda(reg, *with_tiles(X[train], y[train], np.asarray(ids)[train], tiles, used), notes, subspace)
         if list(model.classes_) != classes:
             raise ValueError(f"fold {ids[i]}: fitted classes {list(model.classes_)} differ from {classes}")
         proba[i] = posteriors(model, X[i : i + 1], [ids[i]])[0]

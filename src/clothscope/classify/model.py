@@ -27,7 +27,7 @@ from scipy.special import logsumexp
 
 from clothscope import __version__
 from clothscope.classify.qda import VAR_FLOOR, check_posteriors, check_reg, check_subspace, fit_qda
-from clothscope.classify.rows import MIN_TRAIN_PER_CLASS, feature_matrix, labelled_data, posterior_column
+from clothscope.classify.rows import MIN_TRAIN_PER_CLASS, feature_matrix, labelled_data, posterior_column, with_tiles
 from clothscope.core.atomic import write_json, write_with
 
 #: Marker of the record of a saved model; a record with another is refused.
@@ -231,8 +231,9 @@ def load_model(folder: str | os.PathLike[str]) -> QdaModel:
         raise ValueError(f"{folder / RECORD_NAME}: {err}") from None
 
 
-def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto", subspace: str = "none") -> QdaModel:
-    """Fit :func:`make_qda` on every labelled row (queries are ignored).
+def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto", subspace: str = "none",
+                tiles: pd.DataFrame | None = None) -> QdaModel:
+    """Fit :func:`make_qda` on every labelled row (queries are ignored) and the ``tiles`` of those images.
 
     Classes with fewer than :data:`MIN_TRAIN_PER_CLASS` labelled images are
     left out of the model (noted); feature columns constant over the labelled
@@ -245,7 +246,7 @@ def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | st
     reg, subspace = check_reg(reg), check_subspace(subspace)
     labelled, excluded, notes, used, dropped, X, y = labelled_data(table, feature_columns, MIN_TRAIN_PER_CLASS,
                                                                      "training QDA")
-    pipeline = fit_qda(reg, X, y, notes, subspace)
+    pipeline = fit_qda(reg, *with_tiles(X, y, labelled["image_id"].astype(str).to_numpy(), tiles, used), notes, subspace)
     counts = pd.Series(y).value_counts()
     return QdaModel(
         parameters=QdaParameters.from_pipeline(pipeline),

@@ -4,6 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from clothscope.features.table import TILE_FEATURES
+
 #: A class needs this many labelled images to be fitted (QDA needs a covariance).
 MIN_TRAIN_PER_CLASS = 2
 
@@ -53,8 +55,10 @@ def check_table(table: pd.DataFrame, feature_columns: list[str]) -> list[str]:
 
 def feature_matrix(rows: pd.DataFrame, columns: list[str], what: str) -> np.ndarray:
     """Float feature matrix of ``rows``; ValueError naming non-numeric columns or non-finite rows."""
+    frame = rows[columns]
     try:
-        X = rows[columns].apply(pd.to_numeric, errors="raise").to_numpy(dtype=float)
+        numeric = all(pd.api.types.is_numeric_dtype(kind) for kind in frame.dtypes)
+        X = (frame if numeric else frame.apply(pd.to_numeric, errors="raise")).to_numpy(dtype=float)
     except (ValueError, TypeError) as err:
         raise ValueError(f"{what}: feature columns must be numeric: {err}") from None
     bad = ~np.isfinite(X).all(axis=1)
@@ -118,3 +122,23 @@ def labelled_data(table: pd.DataFrame, feature_columns: list[str], min_per_class
     X = X_all[:, [columns.index(c) for c in used]]
     y = np.array([str(c) for c in labelled["fabric_class"]], dtype=object)
     return labelled, excluded, notes, used, dropped, X, y
+
+
+def with_tiles(X: np.ndarray, y: np.ndarray, ids: list[str] | np.ndarray, tiles: pd.DataFrame | None,
+               columns: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """``X`` and ``y`` with the tile rows of the images ``ids`` appended, each labelled as its image.
+
+    Tiles (``features.structure.tiles``) are sub-windows of an image's map described on their own: extra
+    training rows of that image. Only tiles of the images passed in are added, so a model trained on
+    some images never sees a tile of another. ``tiles`` None or empty, or ``columns`` without any column a
+    tile describes (:data:`~clothscope.features.table.TILE_FEATURES`, plain or as ``<source>.<column>``):
+    ``X`` and ``y`` unchanged, since copies of an image's own values would only make its class look tighter.
+    """
+    if tiles is None or tiles.empty or not any(c.rsplit(".", 1)[-1] in TILE_FEATURES for c in columns):
+        return X, y
+    label = {str(i): c for i, c in zip(ids, y)}
+    rows = tiles[tiles["image_id"].astype(str).isin(label)]
+    if rows.empty:
+        return X, y
+    extra = feature_matrix(rows, columns, "tile rows")
+    return np.vstack([X, extra]), np.concatenate([y, np.array([label[str(i)] for i in rows["image_id"]], dtype=object)])

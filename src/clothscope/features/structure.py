@@ -128,10 +128,7 @@ def analysis_field(field: np.ndarray, border: float) -> np.ndarray:
         raise ValueError(f"expected a 2-D field, got shape {f.shape}")
     if not np.all(np.isfinite(f)):
         raise ValueError("the field holds non-finite values")
-    n = min(f.shape)
-    r0, c0 = (f.shape[0] - n) // 2, (f.shape[1] - n) // 2
-    b = int(round(border * n))
-    f = f[r0 + b : r0 + n - b, c0 + b : c0 + n - b]
+    f = window(f, border)
     if f.shape[0] < MIN_FIELD:
         raise ValueError(f"analysis window of {f.shape[0]} px is smaller than {MIN_FIELD} px")
     sigma = f.shape[0] / 10.0
@@ -347,6 +344,51 @@ def texture_columns(field: np.ndarray, settings: StructureSettings) -> dict[str,
         raise ValueError(f"lbp_scale must be 'pixels' or 'canonical', got {settings.lbp_scale!r}")
     features, diagnostics = structure_features(field, settings)
     return features | lbp_baseline(diagnostics["canonical"] if settings.lbp_scale == "canonical" else field)
+
+
+def window(field: np.ndarray, border: float) -> np.ndarray:
+    """The centred square of ``field`` minus ``border`` of its side on each side (as it is, not normalised)."""
+    f = np.asarray(field, dtype=np.float64)
+    n = min(f.shape)
+    r0, c0 = (f.shape[0] - n) // 2, (f.shape[1] - n) // 2
+    b = int(round(border * n))
+    return f[r0 + b : r0 + n - b, c0 + b : c0 + n - b]
+
+
+@dataclass(frozen=True)
+class TileSettings:
+    """Sub-windows described as extra training rows (``features.tiles`` in the config schema, which holds the defaults)."""
+
+    grid: int
+    size: float
+
+
+def tile_fields(field: np.ndarray, border: float, tiles: TileSettings) -> list[np.ndarray]:
+    """``grid`` x ``grid`` overlapping squares of the analysis window, each ``size`` of its side.
+
+    Evenly spaced from corner to corner; none (an empty list) with ``grid`` 0
+    or when a tile would be smaller than :data:`MIN_FIELD` pixels.
+
+    Raises
+    ------
+    ValueError
+        When ``grid`` is negative or ``size`` is not in (0, 1].
+    """
+    if tiles.grid < 0 or not 0.0 < tiles.size <= 1.0:
+        raise ValueError(f"tiles need grid >= 0 and size in (0, 1], got {tiles.grid} and {tiles.size}")
+    whole = window(field, border)
+    side = whole.shape[0]
+    size = int(round(tiles.size * side))
+    if tiles.grid == 0 or size < MIN_FIELD:
+        return []
+    starts = np.linspace(0, side - size, tiles.grid).round().astype(int)
+    return [whole[r : r + size, c : c + size] for r in starts for c in starts]
+
+
+def tile_columns(field: np.ndarray, settings: StructureSettings, tiles: TileSettings) -> list[dict[str, float]]:
+    """:func:`texture_columns` of each of :func:`tile_fields` (extra training rows for the classifier)."""
+    inner = StructureSettings(0.0, settings.peak_threshold, settings.fundamental_fraction, settings.lbp_scale)
+    return [texture_columns(tile, inner) for tile in tile_fields(field, settings.border, tiles)]
 
 
 def shade_features(shade: np.ndarray | None, settings: StructureSettings) -> dict[str, float]:

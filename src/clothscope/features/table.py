@@ -50,6 +50,13 @@ Columns (:func:`feature_schema`, an explicit pyarrow schema):
 
 A row that is not ``ok`` has zero-filled features (never NaN) and is never
 used for training or scoring.
+
+*Tile rows* (:func:`tile_schema`, ``features/<source>/tiles/``): with
+``features.tiles.grid`` > 0, each usable image also gets one row per tile of
+its field (:func:`clothscope.features.structure.tile_fields`), with
+``image_id``, ``tile`` and the :data:`TILE_FEATURES` (``s_*`` and ``lbp_*``)
+of that tile; the classifier trains on them as extra rows of their image
+(:func:`clothscope.classify.rows.with_tiles`).
 """
 from __future__ import annotations
 
@@ -75,8 +82,10 @@ from clothscope.features.structure import (
     SHADE_COLUMNS,
     STRUCTURE_COLUMNS,
     StructureSettings,
+    TileSettings,
     shade_features,
     texture_columns,
+    tile_columns,
 )
 
 #: Keys of the ``features:`` config section that are SpectrumSettings fields.
@@ -96,6 +105,23 @@ PROVENANCE = (
     ("clothscope_version", pa.string()),
     ("texels_per_pixel", pa.float64()),
 )
+
+
+#: Feature columns a tile row re-describes; its image's row gives the others (the BSDF, the paper's features).
+TILE_FEATURES = (*STRUCTURE_COLUMNS, *LBP_COLUMNS)
+
+
+def tile_schema() -> pa.Schema:
+    """The explicit schema of tile rows: ``image_id``, ``tile`` (0 .. grid^2 - 1) and :data:`TILE_FEATURES`."""
+    fields = [pa.field("image_id", pa.string(), nullable=False), pa.field("tile", pa.int64(), nullable=False)]
+    fields += [pa.field(name, pa.float64(), nullable=False) for name in TILE_FEATURES]
+    return pa.schema(fields, metadata={b"clothscope_version": __version__.encode()})
+
+
+def tile_rows(image_id: str, field: np.ndarray, structure: StructureSettings, tiles: TileSettings) -> list[dict[str, Any]]:
+    """One row per tile of the field (:func:`clothscope.features.structure.tile_fields`); none without tiles."""
+    return [{"image_id": str(image_id), "tile": k, **{name: finite_number(values[name], name) for name in TILE_FEATURES}}
+            for k, values in enumerate(tile_columns(field, structure, tiles))]
 
 
 def specular_norm(specular: float) -> float:
@@ -292,9 +318,14 @@ def concat_rows(paths: list[str | os.PathLike[str]]) -> pa.Table:
     return table
 
 
-def feature_table_job(rows: list[str | os.PathLike[str]], target: str | os.PathLike[str]) -> pa.Table:
-    """The ``feature_table`` rule: the one-row files of :func:`features_job` concatenated into one Parquet table, atomically."""
+def feature_table_job(rows: list[str | os.PathLike[str]], target: str | os.PathLike[str],
+                      tiles: list[str | os.PathLike[str]] = (), tiles_target: str | os.PathLike[str] | None = None) -> pa.Table:
+    """The ``feature_table`` rule: the one-row files of :func:`features_job` concatenated into one Parquet table,
+    and its tile files into ``tiles_target``, each atomically."""
     table = concat_rows(rows)
+    if tiles_target is not None:
+        tile_table = pa.concat_tables([pq.read_table(p).cast(tile_schema()) for p in tiles]) if tiles else tile_schema().empty_table()
+        write_with(tiles_target, lambda tmp: pq.write_table(tile_table, tmp))
     write_with(target, lambda tmp: pq.write_table(table, tmp))
     return table
 
@@ -305,8 +336,10 @@ def read_table(path: str | os.PathLike[str]):
 
 
 def features_job(image_id: str, fabric_class: str | None, source: str, image_path: str, source_dir: str | None,
-                 features_config: dict[str, Any], row_path: str, plot_path: str, log: Any = None) -> dict[str, Any]:
-    """The ``features`` rule for one image: load its source, write the one-row Parquet and the plot."""
+                 features_config: dict[str, Any], row_path: str, plot_path: str, log: Any = None,
+                 tiles_path: str | None = None) -> dict[str, Any]:
+    """The ``features`` rule for one image: load its source, write the one-row Parquet, the plot and,
+    with ``tiles_path``, the rows of its tiles (none for an unusable image)."""
     settings = spectrum_settings(features_config)
     structure = structure_settings(features_config)
     extras = bool(features_config["extras"])
@@ -315,15 +348,19 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
     provenance = {"normal_source": source, "mitsuba_variant": loaded.mitsuba_variant or "unknown",
                   "config_hash": config_hash(features_config, source), "texels_per_pixel": loaded.texels_per_pixel}
     title = f"{image_id} ({fabric_class or 'query'}, {source} {'luminance' if source == 'photo' else 'normals'})"
-    row, result = None, None
+    row, result, tiles = None, None, []
     if loaded.status == STATUS_OK:
         try:
             row, result = compute_row(image_id, fabric_class, loaded.normals, loaded.field, loaded.roughness,
                                       loaded.specular, settings, structure, extras, loaded.shade, **provenance)
+            tiles = tile_rows(image_id, loaded.field, structure, TileSettings(**features_config["tiles"])) if tiles_path else []
         except ValueError as err:
+            row, result, tiles = None, None, []
             loaded = unusable_input("failed", f"spectrum analysis: {err}", loaded.mitsuba_variant)
     if row is None:
         row = unusable_row(image_id, fabric_class, settings, extras, loaded.status, loaded.reason, **provenance)
+    if tiles_path is not None:
+        write_rows(tiles, tile_schema(), tiles_path)
     write_rows([row], schema, row_path)
     if result is not None:
         plot_analysis(result, plot_path, title=title)
