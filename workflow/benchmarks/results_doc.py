@@ -65,7 +65,7 @@ def not_measured(command: str) -> str:
 
 
 def workflow_runs(results: Path) -> list[Run]:
-    """The design run, the held-out run, the capture-realistic field set and the colour-texture experiment, with their commands."""
+    """The design run, the held-out runs, the capture-realistic field set and the colour-texture experiment, with their commands."""
     r = shown(results)
     own_folder = "" if r == "results" else f" --config results={r}"
     design = ".venv/bin/snakemake --cores 2" + own_folder
@@ -75,10 +75,14 @@ def workflow_runs(results: Path) -> list[Run]:
              f"--config samples={r}/field/samples.tsv results={r}/field/run")
     albedo = (".venv/bin/snakemake --cores 2 --configfile config/config.yaml config/overlays/colour_texture.yaml "
               f"--config results={r}/exp_albedo")
+    confirm = (".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/confirm_1126.yaml"
+               f" && .venv/bin/snakemake --cores 2 --config samples={r}/confirm_1126/holdout/samples.tsv "
+               f"results={r}/confirm_1126/run")
     default_sheet = ROOT / "config" / "samples.tsv"
     return [
         Run("design", results, default_sheet, design),
         Run("held-out", results / "holdout" / "run", results / "holdout" / "samples.tsv", holdout),
+        Run("held-out 1126", results / "confirm_1126" / "run", results / "confirm_1126" / "holdout" / "samples.tsv", confirm),
         Run("field", results / "field" / "run", results / "field" / "samples.tsv", field),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
