@@ -20,8 +20,7 @@ from scipy.stats import binomtest
 from clothscope.classify.loocv import loocv
 from clothscope.core.atomic import write_text
 from clothscope.features.sources import STATUS_OK
-from clothscope.features.structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS
-from clothscope.features.table import TILE_FEATURES
+from clothscope.features.structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS, TILE_FEATURES
 
 #: Column groups of a feature table.
 BRDF_COLUMNS = ("roughness", "specular_norm")
@@ -335,7 +334,7 @@ def joined_table(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
 
 def joined_tiles(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.DataFrame] | None) -> pd.DataFrame | None:
     """Tile rows laid out as :func:`joined_table` of ``tables``: each tile is its image's joined row with every
-    source's :data:`~clothscope.features.table.TILE_FEATURES` taken from that source's tile of the same index.
+    source's :data:`~clothscope.features.structure.TILE_FEATURES` taken from that source's tile of the same index.
 
     ``None`` when some source has no tiles (no tile table, or ``features.tiles.grid`` 0): the classifier
     then trains on whole images only.

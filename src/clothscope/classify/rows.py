@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from clothscope.features.table import TILE_FEATURES
+from clothscope.features.structure import TILE_FEATURES
 
 #: A class needs this many labelled images to be fitted (QDA needs a covariance).
 MIN_TRAIN_PER_CLASS = 2
@@ -128,10 +128,10 @@ def with_tiles(X: np.ndarray, y: np.ndarray, ids: list[str] | np.ndarray, tiles:
                columns: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """``X`` and ``y`` with the tile rows of the images ``ids`` appended, each labelled as its image.
 
-    Tiles (``features.structure.tiles``) are sub-windows of an image's map described on their own: extra
+    Tiles (``features.tiles``) are sub-windows of an image's map described on their own: extra
     training rows of that image. Only tiles of the images passed in are added, so a model trained on
     some images never sees a tile of another. ``tiles`` None or empty, or ``columns`` without any column a
-    tile describes (:data:`~clothscope.features.table.TILE_FEATURES`, plain or as ``<source>.<column>``):
+    tile describes (:data:`~clothscope.features.structure.TILE_FEATURES`, plain or as ``<source>.<column>``):
     ``X`` and ``y`` unchanged, since copies of an image's own values would only make its class look tighter.
     """
     if tiles is None or tiles.empty or not any(c.rsplit(".", 1)[-1] in TILE_FEATURES for c in columns):

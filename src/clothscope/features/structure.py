@@ -75,6 +75,8 @@ STRUCTURE_COLUMNS = (
     *[f"s_lbp_{k}" for k in range(10)],
 )
 LBP_COLUMNS = tuple(f"lbp_{p}_{r}_{k}" for p, r in LBP_SCALES for k in range(p + 2))
+#: Columns a tile (:func:`tile_columns`) re-describes; its image's row gives the others (the BSDF, the paper's features).
+TILE_FEATURES = (*STRUCTURE_COLUMNS, *LBP_COLUMNS)
 #: The structure descriptor of a fitted shade (albedo) texture: ``a_`` + each structure column.
 SHADE_PREFIX = "a_"
 SHADE_COLUMNS = tuple(SHADE_PREFIX + name for name in STRUCTURE_COLUMNS)

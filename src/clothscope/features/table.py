@@ -81,6 +81,7 @@ from clothscope.features.structure import (
     LBP_COLUMNS,
     SHADE_COLUMNS,
     STRUCTURE_COLUMNS,
+    TILE_FEATURES,
     StructureSettings,
     TileSettings,
     shade_features,
@@ -105,10 +106,6 @@ PROVENANCE = (
     ("clothscope_version", pa.string()),
     ("texels_per_pixel", pa.float64()),
 )
-
-
-#: Feature columns a tile row re-describes; its image's row gives the others (the BSDF, the paper's features).
-TILE_FEATURES = (*STRUCTURE_COLUMNS, *LBP_COLUMNS)
 
 
 def tile_schema() -> pa.Schema:
