@@ -316,13 +316,12 @@ def concat_rows(paths: list[str | os.PathLike[str]]) -> pa.Table:
 
 
 def feature_table_job(rows: list[str | os.PathLike[str]], target: str | os.PathLike[str],
-                      tiles: list[str | os.PathLike[str]] = (), tiles_target: str | os.PathLike[str] | None = None) -> pa.Table:
+                      tiles: list[str | os.PathLike[str]], tiles_target: str | os.PathLike[str]) -> pa.Table:
     """The ``feature_table`` rule: the one-row files of :func:`features_job` concatenated into one Parquet table,
     and its tile files into ``tiles_target``, each atomically."""
     table = concat_rows(rows)
-    if tiles_target is not None:
-        tile_table = pa.concat_tables([pq.read_table(p).cast(tile_schema()) for p in tiles]) if tiles else tile_schema().empty_table()
-        write_with(tiles_target, lambda tmp: pq.write_table(tile_table, tmp))
+    tile_table = pa.concat_tables([pq.read_table(p).cast(tile_schema()) for p in tiles]) if tiles else tile_schema().empty_table()
+    write_with(tiles_target, lambda tmp: pq.write_table(tile_table, tmp))
     write_with(target, lambda tmp: pq.write_table(table, tmp))
     return table
 
