@@ -62,6 +62,7 @@ VARIANTS: dict[str, tuple[str, dict, bool]] = {
 }
 DEFAULT_VARIANTS = [name for name in VARIANTS if name != "paper"]
 PAPER_PROJECTION = ROOT / "results" / "reports" / "paper_projection.csv"
+GPU_REPORT = ROOT / "results" / "bench" / "gpu" / "gpu_presets.md"
 ERRORS = ("psnr_db", "fold_normal_error_deg", "roughness_error", "period_error")
 
 
@@ -155,7 +156,12 @@ def paper_not_run() -> str:
     if PAPER_PROJECTION.exists():
         minutes = float(pd.read_csv(PAPER_PROJECTION)["projected_s"].sum()) / 60.0
         projected = f", projected at about {minutes:.0f} min per image on 2 CPU cores"
-    return f"not run: opt-in (`--variants paper`){projected} (workflow/benchmarks/paper_projection.py)"
+    return f"not run: opt-in (`--variants paper`){projected} (workflow/benchmarks/paper_projection.py){gpu_note()}"
+
+
+def gpu_note() -> str:
+    """Where the GPU figures of the presets are, when ``gpu_presets.py`` has written them."""
+    return f"; measured on a CUDA GPU in `{GPU_REPORT.relative_to(ROOT)}` (gpu_presets.py)" if GPU_REPORT.is_file() else ""
 
 
 def main() -> int:
@@ -176,7 +182,7 @@ def main() -> int:
                      if name not in requested and name != "cuda"}
     if "cuda" in requested and not cuda_available():
         requested.remove("cuda")
-        not_measured["cuda"] = "not measured: no CUDA GPU on this machine (Dr.Jit's CUDA backend did not initialise)"
+        not_measured["cuda"] = f"not measured here: no CUDA GPU on this machine (Dr.Jit's CUDA backend did not initialise){gpu_note()}"
     table = pd.concat([run_variant(v, out, subset, args.reuse) for v in requested], ignore_index=True)
     default_rows = table[(table["variant"] == "default") & table["image_id"].isin(subset)]
     table = pd.concat([table, default_rows.assign(variant="default (subset)", whole_sheet=False, loocv_accuracy=np.nan)],

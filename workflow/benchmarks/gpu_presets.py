@@ -1,0 +1,230 @@
+"""Benchmark: a fidelity preset on a CUDA GPU (variant ``cuda_ad_rgb``): seconds per image, reconstruction, features.
+
+    .venv/bin/python workflow/benchmarks/gpu_presets.py --preset NAME [--variant cuda_ad_rgb] [--images all] [--alone 3] [--jobs 16] [--budget-s 600] [--out results/bench/gpu]
+
+Runs the real workflow with ``variant=cuda_ad_rgb`` into ``<out>/<preset>/``: first ``--alone``
+images fitted one job at a time into ``<out>/<preset>-alone/`` (the time one image takes with
+the GPU to itself), then the whole sample sheet with ``--jobs`` jobs side by side (the time the
+sheet takes; its images share the GPU). A run still going after ``--budget-s`` seconds is
+stopped (Snakemake removes what it was writing); the images whose three fit stages finished
+are then reported, and the others counted as not finished. Targets: ``reports/fit_accuracy.csv``
+and the feature tables of the fitted maps and of the photo, so that the classification can be
+scored afterwards on any machine, with the same code as every other run::
+
+    .venv/bin/python workflow/benchmarks/tiles_gain.py <out>/default --name gpu_scores
+
+The default preset's fits are also set against a CPU run of the same images (``--cpu-run``,
+its ``reports/fit_accuracy.csv``).
+
+Rows of ``<out>/gpu_presets.csv`` (one per image, preset and mode) are replaced per preset, so
+presets can be run one call at a time; ``<out>/gpu_presets.md`` summarises all of them.
+With ``--variant cuda_ad_rgb`` (the default) it needs a CUDA GPU that Dr.Jit can start, and
+exits with an error otherwise; ``--variant llvm_ad_rgb`` runs the same on the CPU.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+from harness import ROOT, STAGES, publish, seed_prepared, shown, stage_benchmarks, write_sheet
+
+from clothscope.core.runtime import cuda_available
+
+
+@dataclass(frozen=True)
+class Run:
+    """A fidelity preset on a Mitsuba variant."""
+
+    preset: str
+    variant: str
+
+    @property
+    def name(self) -> str:
+        """The run's folder name: the preset, with the variant when it is not CUDA."""
+        return self.preset if self.variant == "cuda_ad_rgb" else f"{self.preset}-{self.variant}"
+
+
+def run_workflow(results: Path, run: Run, sheet: Path, jobs: int, budget_s: float, targets: list[str]) -> tuple[float, bool]:
+    """Snakemake ``targets`` with the run's preset and variant; (wall seconds, finished within ``budget_s``)."""
+    command = [sys.executable, "-m", "snakemake", "--cores", str(jobs), "--scheduler", "greedy", "--rerun-triggers", "mtime",
+               "--quiet", "--config", f"preset={run.preset}", f"variant={run.variant}", f"samples={sheet}", f"results={results}",
+               "--", *targets]
+    started = time.perf_counter()
+    process = subprocess.Popen(command, cwd=ROOT, start_new_session=True)
+    try:
+        finished = process.wait(timeout=max(budget_s, 1.0)) == 0
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGTERM)  # Snakemake removes the outputs of the jobs it was running
+        try:
+            process.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+        finished = False
+    return time.perf_counter() - started, finished
+
+
+def finished_images(results: Path, images: list[str]) -> list[str]:
+    """Images whose normal-map stage (the last one) wrote its output and its benchmark file."""
+    return [i for i in images if (results / "fit" / i / "normals" / "state.json").is_file()
+            and (results / "benchmarks" / "fit_normals" / f"{i}.tsv").is_file()]
+
+
+def targets(results: Path, features: bool) -> list[str]:
+    """The fit-accuracy report and, with ``features``, the fitted and photo feature tables (whole images and tiles)."""
+    paths = [results / "reports" / "fit_accuracy.csv"]
+    if features:
+        paths += [results / "features" / s / name for s in ("fitted", "photo") for name in ("table.parquet", "tiles/table.parquet")]
+    return [str(p) for p in paths]
+
+
+def run_mode(results: Path, run: Run, images: list[str], jobs: int, budget_s: float, features: bool) -> pd.DataFrame:
+    """Fit ``images`` (``jobs`` side by side) within the budget into the emptied ``results``; one row per image."""
+    shutil.rmtree(results, ignore_errors=True)  # fits of older code would be taken as current (mtime triggers)
+    results.mkdir(parents=True)
+    seed_prepared(results)
+    sheet = write_sheet(images, results / "samples.tsv")
+    wall, complete = run_workflow(results, run, sheet, jobs, budget_s, targets(results, features))
+    done = finished_images(results, images)
+    if not complete and done:  # the reports of the images that finished (no fitting left to do)
+        sheet = write_sheet(done, results / "samples_finished.tsv")
+        run_workflow(results, run, sheet, jobs, 600.0, targets(results, False))
+    report = results / "reports" / "fit_accuracy.csv"
+    accuracy = pd.read_csv(report) if report.is_file() else pd.DataFrame({"image_id": []})
+    accuracy = accuracy[accuracy["image_id"].isin(done)].drop(columns=[c for c in accuracy if c.endswith("_s") or "rss" in c])
+    table = pd.DataFrame([{"image_id": image, **stage_costs(results, image)} for image in images]).merge(accuracy, "left", "image_id")
+    return table.assign(preset=run.preset, variant=run.variant, jobs=jobs, images_asked=len(images), images_finished=len(done),
+                        run_wall_s=round(wall, 1), run_complete=complete, results=shown(results))
+
+
+def stage_costs(results: Path, image: str) -> dict[str, float]:
+    """Seconds and peak RSS MB of each fit stage of ``image`` that finished (NaN for the others), and their sums."""
+    row: dict[str, float] = {}
+    for stage, (seconds, rss) in stage_benchmarks(results, image).items():
+        ran = (results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv").is_file()
+        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = (seconds, rss) if ran else (float("nan"), float("nan"))
+    row["fit_s"] = sum(row[f"{stage}_s"] for stage in STAGES)  # NaN unless every stage finished
+    row["max_rss_mb"] = pd.Series([row[f"{stage}_max_rss_mb"] for stage in STAGES]).max()
+    return row
+
+
+def summary(table: pd.DataFrame) -> pd.DataFrame:
+    """Per preset and mode: images finished, wall seconds of the run and per image, stage medians, reconstruction."""
+    rows = []
+    for (preset, variant, mode), group in table.groupby(["preset", "variant", "mode"], sort=False):
+        first = group.iloc[0]
+        finished = int(first["images_finished"])
+        row = {"preset": preset, "variant": variant, "mode": mode, "jobs side by side": int(first["jobs"]),
+               "images finished": f"{finished}/{int(first['images_asked'])}", "run wall s": first["run_wall_s"],
+               "run wall s per image": round(first["run_wall_s"] / finished, 2) if finished else float("nan"),
+               "median fit s per image": group["fit_s"].median()}
+        row |= {f"median {stage} s": group[f"{stage}_s"].median() for stage in STAGES}
+        row["stages finished (images)"] = " / ".join(str(int(group[f"{stage}_s"].notna().sum())) for stage in STAGES)
+        for column, label in (("psnr_db", "median PSNR dB"), ("fold_normal_error_deg", "median fold normal error deg"),
+                              ("roughness_error", "median roughness error")):
+            row[label] = group[column].median() if column in group else float("nan")
+        row["max RSS MB"] = group["max_rss_mb"].max()
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def against_cpu(table: pd.DataFrame, cpu_report: Path) -> str:
+    """The default preset's whole-sheet fit on the GPU against a CPU run's ``fit_accuracy.csv`` of the same images."""
+    gpu = table[(table["preset"] == "default") & (table["mode"] == "sheet")]
+    if not cpu_report.is_file() or gpu.empty or "psnr_db" not in gpu:
+        return ""
+    both = pd.read_csv(cpu_report).merge(gpu, on="image_id", suffixes=("_cpu", "_gpu"))
+    both = both[(both["status_cpu"] == "fitted") & (both["status_gpu"] == "fitted")]
+    rows = [{"figure": name, "CPU median": both[f"{name}_cpu"].median(), "GPU median": both[f"{name}_gpu"].median(),
+             "largest difference": (both[f"{name}_cpu"] - both[f"{name}_gpu"]).abs().max(),
+             "median difference": (both[f"{name}_cpu"] - both[f"{name}_gpu"]).abs().median()}
+            for name in ("psnr_db", "fold_normal_error_deg", "roughness_error", "period_error")]
+    return "\n".join([f"The default preset's fits on the GPU against `{shown(cpu_report)}` (same images, same seeds; "
+                      f"{len(both)} images fitted on both; differences are per image, absolute):", "",
+                      pd.DataFrame(rows).round(5).to_markdown(index=False), ""])
+
+
+def paper_beside_default(table: pd.DataFrame) -> str:
+    """Each image the ``paper`` preset fitted, with the default preset's fit of the same image (GPU, whole sheet)."""
+    figures = ["fit_s", "psnr_db", "fold_normal_error_deg", "roughness_error", "period_error"]
+    fitted = table[(table.get("status") == "fitted")] if "status" in table else table.iloc[:0]
+    paper = fitted[fitted["preset"] == "paper"]
+    default = fitted[(fitted["preset"] == "default") & (fitted["mode"] == "sheet")]
+    both = paper[["image_id", "mode", *figures]].merge(default[["image_id", *figures]], on="image_id", suffixes=(" paper", " default"))
+    if both.empty:
+        return ""
+    return "\n".join(["Images the `paper` preset fitted, beside the default preset's fit of the same image "
+                      "(fit seconds: `paper` in its mode, default with 16 jobs side by side):", "",
+                      both.round(4).to_markdown(index=False), ""])
+
+
+def markdown(table: pd.DataFrame, device: str, cpu_report: Path) -> str:
+    """The summary table with how it was measured, and the default preset against a CPU run."""
+    lines = [f"# Fidelity presets on a CUDA GPU ({device})", "",
+             "`alone`: one image at a time, the GPU to itself (seconds per image = one image's latency). "
+             "`sheet`: the whole sample sheet with several jobs side by side sharing the GPU "
+             "(run wall seconds per image = throughput). Fit seconds are the three stages' `benchmark:` "
+             "files summed, each a separate process (Python start, imports, scene build and kernel compilation included).", "",
+             summary(table).round(3).to_markdown(index=False), "",
+             against_cpu(table, cpu_report), paper_beside_default(table),
+             "LOOCV: `workflow/benchmarks/tiles_gain.py <out>/default --name gpu_scores` on the feature tables.", ""]
+    return "\n".join(lines)
+
+
+def gpu_name() -> str:
+    """The GPU's name as ``nvidia-smi`` reports it, or ``CUDA GPU``."""
+    try:
+        name = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"], capture_output=True, text=True,
+                              check=True).stdout.strip().splitlines()
+        return name[0] if name else "CUDA GPU"
+    except (OSError, subprocess.CalledProcessError):
+        return "CUDA GPU"
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--preset", required=True, help="fidelity preset (config/presets/<name>.yaml)")
+    parser.add_argument("--variant", default="cuda_ad_rgb", help="Mitsuba variant (llvm_ad_rgb: the CPU baseline)")
+    parser.add_argument("--images", default="all", help="comma-separated image ids of config/samples.tsv, or all")
+    parser.add_argument("--alone", type=int, default=3, help="images fitted one at a time first (0: none)")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 2, help="jobs side by side for the whole sheet (0: no sheet run)")
+    parser.add_argument("--budget-s", type=float, default=3600.0, help="stop the whole-sheet run after this many seconds")
+    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench" / "gpu")
+    parser.add_argument("--cpu-run", type=Path, default=ROOT / "results", help="a default-preset CPU run to compare with")
+    args = parser.parse_args()
+    if args.variant == "cuda_ad_rgb" and not cuda_available():
+        raise SystemExit("gpu_presets: error: no CUDA GPU that Dr.Jit can start on this machine")
+    if not (ROOT / "config" / "presets" / f"{args.preset}.yaml").is_file():
+        raise SystemExit(f"gpu_presets: error: no preset {args.preset!r} in config/presets/")
+    out = args.out.resolve()
+    run = Run(args.preset, args.variant)
+    images = pd.read_csv(write_sheet(args.images.split(","), out / f"{run.name}.samples.tsv"), sep="\t", dtype=str)["image_id"].tolist()
+    parts = []
+    started = time.perf_counter()
+    if args.alone > 0:
+        alone = run_mode(out / f"{run.name}-alone", run, images[:: max(len(images) // args.alone, 1)][: args.alone], 1,
+                         args.budget_s, False)
+        parts.append(alone.assign(mode="alone"))
+    remaining = args.budget_s - (time.perf_counter() - started)
+    if args.jobs > 0:
+            parts.append(run_mode(out / run.name, run, images, args.jobs, remaining, True).assign(mode="sheet"))
+    table = pd.concat(parts, ignore_index=True)
+    previous = out / "gpu_presets.csv"
+    if previous.is_file():
+        earlier = pd.read_csv(previous)
+        kept = earlier[(earlier["preset"] != run.preset) | (earlier["variant"] != run.variant) | ~earlier["mode"].isin(table["mode"])]
+        table = pd.concat([kept, table], ignore_index=True)
+    publish(out, "gpu_presets", table, markdown(table, gpu_name(), args.cpu_run / "reports" / "fit_accuracy.csv"))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
