@@ -41,6 +41,28 @@ def test_dry_run_in_truth_mode_fits_nothing(fresh_clone):
     assert "results/features/truth/table.parquet" in result.stdout
 
 
+def fit_runtimes(stdout: str) -> set[int]:
+    """The ``runtime`` resource (minutes) of every fit job a dry run lists."""
+    blocks = [block for block in stdout.split("rule ")[1:] if block.startswith(("fit_geometry:", "fit_material:", "fit_normals:"))]
+    return {int(line.split("runtime=")[1].split(",")[0]) for block in blocks for line in block.splitlines() if "runtime=" in line}
+
+
+def test_fit_jobs_take_the_presets_time_limit(fresh_clone, tmp_path):
+    """A cluster kills a job at its runtime: the paper preset's fit jobs ask for its longer fit.runtime."""
+    sheet = tmp_path / "s.tsv"
+    sheet.write_text("image_id\tpath\na\tdata/synthetic/canvas/canvas_red.png\n")
+    schema = yaml.safe_load((fresh_clone / "src" / "clothscope" / "core" / "schemas" / "config.schema.yaml").read_text())
+    default = schema["properties"]["fit"]["properties"]["runtime"]["default"]
+    paper = yaml.safe_load((fresh_clone / "config" / "presets" / "paper.yaml").read_text())["fit"]["runtime"]
+    limits = {}
+    for preset in ("default", "paper"):
+        result = run_snakemake(fresh_clone, "-n", "--cores", "1", "--config", f"samples={sheet}", f"preset={preset}",
+                               f"results={tmp_path / preset}")
+        assert result.returncode == 0, result.stderr[-2000:]
+        limits[preset] = fit_runtimes(result.stdout)
+    assert limits == {"default": {default}, "paper": {paper}} and paper > default
+
+
 def test_lint_is_clean(fresh_clone):
     result = run_snakemake(fresh_clone, "--lint")
     assert result.returncode == 0 and "Congratulations" in result.stdout + result.stderr, result.stdout[-3000:]

@@ -16,7 +16,7 @@ rule fit_geometry:
     threads: config["fit"]["threads"]
     resources:
         mem_mb=2000,
-        runtime=10,
+        runtime=config["fit"]["runtime"],
         gpu=GPUS,
     params:
         settings=config["fit"]["geometry"],
@@ -42,7 +42,7 @@ rule fit_material:
     threads: config["fit"]["threads"]
     resources:
         mem_mb=2000,
-        runtime=10,
+        runtime=config["fit"]["runtime"],
         gpu=GPUS,
     params:
         settings=config["fit"]["material"],
@@ -74,7 +74,7 @@ rule fit_normals:
     threads: config["fit"]["threads"]
     resources:
         mem_mb=2000,
-        runtime=10,
+        runtime=config["fit"]["runtime"],
         gpu=GPUS,
     params:
         settings=config["fit"]["normals"],
