@@ -5,6 +5,7 @@ import pytest
 import yaml
 from conftest import ROOT, SCHEMAS
 
+from clothscope.core.config import check_sample_counts, multijitter_count
 from clothscope.core.samples import load_sample_sheet, sheet_from_folder, sheet_to_tsv
 from clothscope.core.schema import InputError, apply_preset, load_schema, validate
 
@@ -54,6 +55,31 @@ def test_config_errors_are_one_line(bad, fragment):
         validate(bad, CONFIG_SCHEMA, "config/config.yaml")
     message = str(err.value)
     assert "\n" not in message and message.startswith("config/config.yaml") and fragment in message
+
+
+def test_multijitter_counts_are_its_grids():
+    """Mitsuba's multijitter sampler lays isqrt(n) columns and enough rows: 32 samples become 35."""
+    assert [multijitter_count(n) for n in (1, 2, 4, 16, 30, 32, 35, 36, 64)] == [1, 2, 4, 16, 30, 35, 35, 36, 64]
+    with pytest.raises(ValueError):
+        multijitter_count(0)
+
+
+@pytest.mark.parametrize("preset", sorted(p.stem for p in (ROOT / "config" / "presets").glob("*.yaml")))
+def test_every_preset_and_the_preview_ask_for_the_samples_they_draw(preset):
+    from clothscope.fit.jobs import PREVIEW_SPP
+
+    config = validate(apply_preset({"preset": preset}, ROOT / "config" / "presets"), CONFIG_SCHEMA, "config")
+    check_sample_counts(config)  # raises for a count the sampler would round up
+    assert multijitter_count(PREVIEW_SPP) == PREVIEW_SPP
+
+
+@pytest.mark.parametrize("stage, key", [("normals", "spp"), ("normals", "spp_grad"), ("geometry", "spp")])
+def test_a_count_the_sampler_would_round_is_refused_in_one_line(stage, key):
+    config = validate({"fit": {stage: {key: 32}}}, CONFIG_SCHEMA, "config")
+    with pytest.raises(InputError) as err:
+        check_sample_counts(config)
+    assert str(err.value) == f"config: fit.{stage}.{key}: the multijitter sampler draws 35 samples per pixel when asked for 32; ask for 30 or 35"
+    check_sample_counts(validate({"fit": {stage: {key: 32, "sampler": "independent"}}}, CONFIG_SCHEMA, "config"))
 
 
 def test_default_sheet_loads_with_every_file(tmp_path):

@@ -3,7 +3,7 @@ import os
 import sys
 
 from clothscope.classify.outputs import IN_SNAKEMAKE_REPORT, RECORDS_FILE, REPORT_FILES
-from clothscope.core.config import SCHEMA_PATH
+from clothscope.core.config import SCHEMA_PATH, check_sample_counts
 from clothscope.core.imageio import file_problem
 from clothscope.core.samples import SAMPLES_SCHEMA_PATH, load_sample_sheet
 from clothscope.core.schema import InputError, apply_preset, load_schema, validate
@@ -19,6 +19,7 @@ def fail(message):
 try:
     config.update(apply_preset(config, PRESETS))
     config.update(validate(config, load_schema(SCHEMA_PATH), "config"))
+    check_sample_counts(config)
     SAMPLES = load_sample_sheet(config["samples"], SAMPLES_SCHEMA_PATH)
 except InputError as err:
     fail(err)

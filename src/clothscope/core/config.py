@@ -10,13 +10,17 @@ import copy
 import dataclasses
 import functools
 import importlib
+import math
 from collections.abc import Mapping
 from typing import Any
 
-from clothscope.core.schema import SCHEMA_DIR, deep_merge, load_schema, validate
+from clothscope.core.schema import SCHEMA_DIR, InputError, deep_merge, load_schema, validate
 
 #: The config schema.
 SCHEMA_PATH = SCHEMA_DIR / "config.schema.yaml"
+
+#: The fit stages, each a ``fit.<stage>`` section with ``spp`` and ``sampler``.
+FIT_STAGES = ("geometry", "material", "normals")
 
 #: Config section (dotted) -> its settings class, ``module:Class``, imported when first asked for.
 SECTIONS = {
@@ -83,3 +87,36 @@ def settings(section: str, config: Mapping[str, Any] | None = None, /, **overrid
         values = values[key]
     cls = settings_class(section)
     return cls(**{field.name: values[field.name] for field in dataclasses.fields(cls)})
+
+
+def multijitter_count(spp: int) -> int:
+    """Samples per pixel Mitsuba's ``multijitter`` sampler draws when asked for ``spp``.
+
+    It lays a grid of ``isqrt(spp)`` columns and as many rows as ``spp`` needs, so
+    a count that is not such a grid is rounded up (32 becomes 35, 5 x 7).
+    """
+    if spp < 1:
+        raise ValueError(f"a sample count must be >= 1, got {spp}")
+    columns = math.isqrt(spp)
+    return columns * -(-spp // columns)
+
+
+def check_sample_counts(config: Mapping[str, Any]) -> None:
+    """Refuse a fit stage's sample count that its ``multijitter`` sampler would round up unasked.
+
+    Raises
+    ------
+    InputError
+        One line naming the first ``fit.<stage>.spp`` or ``spp_grad`` concerned, the count the
+        sampler would draw and the nearest counts it draws as asked.
+    """
+    for stage in FIT_STAGES:
+        section = config["fit"][stage]
+        if section["sampler"] != "multijitter":
+            continue
+        for key in ("spp", "spp_grad"):
+            asked = int(section.get(key, 0))
+            if asked and multijitter_count(asked) != asked:
+                below = next(n for n in range(asked - 1, 0, -1) if multijitter_count(n) == n)
+                raise InputError(f"config: fit.{stage}.{key}: the multijitter sampler draws {multijitter_count(asked)} "
+                                 f"samples per pixel when asked for {asked}; ask for {below} or {multijitter_count(asked)}")
