@@ -1,4 +1,4 @@
-"""Benchmark: a fidelity preset on a CUDA GPU (variant ``cuda_ad_rgb``): seconds per image, reconstruction, features.
+"""Benchmark: a fidelity preset on a CUDA GPU (or the CPU): seconds per image, where they go, reconstruction, features.
 
     .venv/bin/python workflow/benchmarks/gpu_presets.py --preset NAME [--variant cuda_ad_rgb] [--images all] [--alone 3] [--jobs 16] [--budget-s 600] [--out results/bench/gpu]
 
@@ -101,7 +101,8 @@ def run_mode(results: Path, run: Run, images: list[str], jobs: int, budget_s: fl
     accuracy = pd.read_csv(report) if report.is_file() else pd.DataFrame({"image_id": []})
     accuracy = accuracy[accuracy["image_id"].isin(done)].drop(columns=[c for c in accuracy if c.endswith("_s") or "rss" in c])
     table = pd.DataFrame([{"image_id": image, **stage_costs(results, image)} for image in images]).merge(accuracy, "left", "image_id")
-    return table.assign(preset=run.preset, variant=run.variant, jobs=jobs, images_asked=len(images), images_finished=len(done),
+    device = gpu_name() if run.variant.startswith("cuda") else "CPU"
+    return table.assign(preset=run.preset, variant=run.variant, device=device, jobs=jobs, images_asked=len(images), images_finished=len(done),
                         run_wall_s=round(wall, 1), run_complete=complete, results=shown(results))
 
 
@@ -116,17 +117,27 @@ def stage_costs(results: Path, image: str) -> dict[str, float]:
     return row
 
 
+def loop_seconds(results: Path, image: str) -> float:
+    """Seconds the three stages' optimisation loops of ``image`` took by their own clock (``loss.csv``), NaN if unfinished."""
+    curves = [results / "fit" / image / stage / "loss.csv" for stage in STAGES]
+    if not all(curve.is_file() for curve in curves):
+        return float("nan")
+    return float(sum(pd.read_csv(curve)["seconds"].max() for curve in curves))
+
+
 def summary(table: pd.DataFrame) -> pd.DataFrame:
     """Per preset and mode: images finished, wall seconds of the run and per image, stage medians, reconstruction."""
+    table = table.assign(loops_s=[loop_seconds(ROOT / folder, image) for folder, image in zip(table["results"], table["image_id"])])
     rows = []
     for (preset, variant, mode), group in table.groupby(["preset", "variant", "mode"], sort=False):
         first = group.iloc[0]
         finished = int(first["images_finished"])
-        row = {"preset": preset, "variant": variant, "mode": mode, "jobs side by side": int(first["jobs"]),
+        row = {"preset": preset, "variant": variant, "device": first["device"], "mode": mode, "jobs side by side": int(first["jobs"]),
                "images finished": f"{finished}/{int(first['images_asked'])}", "run wall s": first["run_wall_s"],
                "run wall s per image": round(first["run_wall_s"] / finished, 2) if finished else float("nan"),
                "median fit s per image": group["fit_s"].median()}
         row |= {f"median {stage} s": group[f"{stage}_s"].median() for stage in STAGES}
+        row["median loops s"] = group["loops_s"].median()
         row["stages finished (images)"] = " / ".join(str(int(group[f"{stage}_s"].notna().sum())) for stage in STAGES)
         for column, label in (("psnr_db", "median PSNR dB"), ("fold_normal_error_deg", "median fold normal error deg"),
                               ("roughness_error", "median roughness error")):
@@ -138,7 +149,7 @@ def summary(table: pd.DataFrame) -> pd.DataFrame:
 
 def against_cpu(table: pd.DataFrame, cpu_report: Path) -> str:
     """The default preset's whole-sheet fit on the GPU against a CPU run's ``fit_accuracy.csv`` of the same images."""
-    gpu = table[(table["preset"] == "default") & (table["mode"] == "sheet")]
+    gpu = table[(table["preset"] == "default") & (table["mode"] == "sheet") & (table["variant"] == "cuda_ad_rgb")]
     if not cpu_report.is_file() or gpu.empty or "psnr_db" not in gpu:
         return ""
     both = pd.read_csv(cpu_report).merge(gpu, on="image_id", suffixes=("_cpu", "_gpu"))
@@ -153,9 +164,10 @@ def against_cpu(table: pd.DataFrame, cpu_report: Path) -> str:
 
 
 def paper_beside_default(table: pd.DataFrame) -> str:
-    """Each image the ``paper`` preset fitted, with the default preset's fit of the same image (GPU, whole sheet)."""
+    """Each image the ``paper`` preset fitted on the GPU, with the default preset's fit of the same image there (whole sheet)."""
     figures = ["fit_s", "psnr_db", "fold_normal_error_deg", "roughness_error", "period_error"]
     fitted = table[(table.get("status") == "fitted")] if "status" in table else table.iloc[:0]
+    fitted = fitted[fitted["variant"] == "cuda_ad_rgb"]
     paper = fitted[fitted["preset"] == "paper"]
     default = fitted[(fitted["preset"] == "default") & (fitted["mode"] == "sheet")]
     both = paper[["image_id", "mode", *figures]].merge(default[["image_id", *figures]], on="image_id", suffixes=(" paper", " default"))
@@ -166,13 +178,15 @@ def paper_beside_default(table: pd.DataFrame) -> str:
                       both.round(4).to_markdown(index=False), ""])
 
 
-def markdown(table: pd.DataFrame, device: str, cpu_report: Path) -> str:
+def markdown(table: pd.DataFrame, cpu_report: Path) -> str:
     """The summary table with how it was measured, and the default preset against a CPU run."""
-    lines = [f"# Fidelity presets on a CUDA GPU ({device})", "",
+    lines = ["# Fidelity presets per device: one image alone and the whole sheet side by side", "",
+             "Compare seconds only between rows of the same device.", "",
              "`alone`: one image at a time, the GPU to itself (seconds per image = one image's latency). "
              "`sheet`: the whole sample sheet with several jobs side by side sharing the GPU "
              "(run wall seconds per image = throughput). Fit seconds are the three stages' `benchmark:` "
-             "files summed, each a separate process (Python start, imports, scene build and kernel compilation included).", "",
+             "files summed, each a separate process (Python start, imports, scene build and kernel compilation included); "
+             "loops: the three optimisation loops alone, by the clock of their `loss.csv`.", "",
              summary(table).round(3).to_markdown(index=False), "",
              against_cpu(table, cpu_report), paper_beside_default(table),
              "LOOCV: `workflow/benchmarks/tiles_gain.py <out>/default --name gpu_scores` on the feature tables.", ""]
@@ -191,7 +205,7 @@ def gpu_name() -> str:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", required=True, help="fidelity preset (config/presets/<name>.yaml)")
+    parser.add_argument("--preset", help="fidelity preset (config/presets/<name>.yaml); required unless --report")
     parser.add_argument("--variant", default="cuda_ad_rgb", help="Mitsuba variant (llvm_ad_rgb: the CPU baseline)")
     parser.add_argument("--images", default="all", help="comma-separated image ids of config/samples.tsv, or all")
     parser.add_argument("--alone", type=int, default=3, help="images fitted one at a time first (0: none)")
@@ -199,12 +213,19 @@ def main() -> int:
     parser.add_argument("--budget-s", type=float, default=3600.0, help="stop the whole-sheet run after this many seconds")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench" / "gpu")
     parser.add_argument("--cpu-run", type=Path, default=ROOT / "results", help="a default-preset CPU run to compare with")
+    parser.add_argument("--report", action="store_true", help="only rewrite <out>/gpu_presets.md from <out>/gpu_presets.csv")
     args = parser.parse_args()
+    out = args.out.resolve()
+    if args.report:
+        table = pd.read_csv(out / "gpu_presets.csv")
+        publish(out, "gpu_presets", table, markdown(table, args.cpu_run / "reports" / "fit_accuracy.csv"))
+        return 0
+    if args.preset is None:
+        parser.error("--preset is required (unless --report)")
     if args.variant == "cuda_ad_rgb" and not cuda_available():
         raise SystemExit("gpu_presets: error: no CUDA GPU that Dr.Jit can start on this machine")
     if not (ROOT / "config" / "presets" / f"{args.preset}.yaml").is_file():
         raise SystemExit(f"gpu_presets: error: no preset {args.preset!r} in config/presets/")
-    out = args.out.resolve()
     run = Run(args.preset, args.variant)
     images = pd.read_csv(write_sheet(args.images.split(","), out / f"{run.name}.samples.tsv"), sep="\t", dtype=str)["image_id"].tolist()
     parts = []
@@ -222,7 +243,7 @@ def main() -> int:
         earlier = pd.read_csv(previous)
         kept = earlier[(earlier["preset"] != run.preset) | (earlier["variant"] != run.variant) | ~earlier["mode"].isin(table["mode"])]
         table = pd.concat([kept, table], ignore_index=True)
-    publish(out, "gpu_presets", table, markdown(table, gpu_name(), args.cpu_run / "reports" / "fit_accuracy.csv"))
+    publish(out, "gpu_presets", table, markdown(table, args.cpu_run / "reports" / "fit_accuracy.csv"))
     return 0
 
 

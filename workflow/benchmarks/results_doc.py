@@ -341,8 +341,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),
                         f"{py}/large_photo.py"),
         BenchmarkReport("What accuracy costs: presets and knobs", ("reports/cost_accuracy.md",), f"{py}/cost_accuracy.py"),
-        BenchmarkReport("Fidelity presets on a CUDA GPU", ("bench/gpu/gpu_presets.md",),
-                        f"{py}/gpu_presets.py --preset default --jobs 16 && {py}/gpu_presets.py --preset paper --alone 1 --jobs 0"),
+        BenchmarkReport("Fidelity presets on a CUDA GPU and on the CPU", ("bench/gpu/gpu_presets.md",),
+                        f"{py}/gpu_presets.py --preset default --jobs 16 && {py}/gpu_presets.py --preset paper --alone 1 --jobs 0"
+                        f" (on the GPU machine), then here {py}/gpu_presets.py --preset default --variant llvm_ad_rgb --jobs 0"
+                        f" && {py}/gpu_presets.py --preset fast --variant llvm_ad_rgb --jobs 0"),
         BenchmarkReport("Classification from the GPU-fitted maps", ("bench/gpu_scores.md",),
                         f"{py}/tiles_gain.py results/bench/gpu/default --name gpu_scores"),
         BenchmarkReport("Normal-map stage knobs", ("reports/normals_sweep.md",), f"{py}/normals_sweep.py"),
