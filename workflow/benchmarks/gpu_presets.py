@@ -2,10 +2,11 @@
 
     .venv/bin/python workflow/benchmarks/gpu_presets.py --preset NAME [--variant cuda_ad_rgb] [--images all] [--alone 3] [--jobs 16] [--budget-s 600] [--out results/bench/gpu]
 
-Runs the real workflow with ``variant=cuda_ad_rgb`` into ``<out>/<preset>/``: first ``--alone``
-images fitted one job at a time into ``<out>/<preset>-alone/`` (the time one image takes with
-the GPU to itself), then the whole sample sheet with ``--jobs`` jobs side by side (the time the
-sheet takes; its images share the GPU). A run still going after ``--budget-s`` seconds is
+Runs the real workflow with ``--variant`` (CUDA unless told otherwise) into ``<out>/<preset>/``
+(``<out>/<preset>-<variant>/`` for another variant): first ``--alone`` images fitted one job at a
+time into a ``-alone`` folder beside it (the time one image takes with the device to itself), then
+the whole sample sheet with ``--jobs`` jobs side by side (the time the sheet takes; its images
+share the device). A run still going after ``--budget-s`` seconds is
 stopped (Snakemake removes what it was writing); the images whose three fit stages finished
 are then reported, and the others counted as not finished. Targets: ``reports/fit_accuracy.csv``
 and the feature tables of the fitted maps and of the photo, so that the classification can be
@@ -166,7 +167,7 @@ def against_cpu(table: pd.DataFrame, cpu_report: Path) -> str:
 def paper_beside_default(table: pd.DataFrame) -> str:
     """Each image the ``paper`` preset fitted on the GPU, with the default preset's fit of the same image there (whole sheet)."""
     figures = ["fit_s", "psnr_db", "fold_normal_error_deg", "roughness_error", "period_error"]
-    fitted = table[(table.get("status") == "fitted")] if "status" in table else table.iloc[:0]
+    fitted = table[table["status"] == "fitted"] if "status" in table else table.iloc[:0]
     fitted = fitted[fitted["variant"] == "cuda_ad_rgb"]
     paper = fitted[fitted["preset"] == "paper"]
     default = fitted[(fitted["preset"] == "default") & (fitted["mode"] == "sheet")]
@@ -174,7 +175,7 @@ def paper_beside_default(table: pd.DataFrame) -> str:
     if both.empty:
         return ""
     return "\n".join(["Images the `paper` preset fitted, beside the default preset's fit of the same image "
-                      "(fit seconds: `paper` in its mode, default with 16 jobs side by side):", "",
+                      "(fit seconds: `paper` in its mode, default in its whole-sheet run):", "",
                       both.round(4).to_markdown(index=False), ""])
 
 
@@ -182,8 +183,8 @@ def markdown(table: pd.DataFrame, cpu_report: Path) -> str:
     """The summary table with how it was measured, and the default preset against a CPU run."""
     lines = ["# Fidelity presets per device: one image alone and the whole sheet side by side", "",
              "Compare seconds only between rows of the same device.", "",
-             "`alone`: one image at a time, the GPU to itself (seconds per image = one image's latency). "
-             "`sheet`: the whole sample sheet with several jobs side by side sharing the GPU "
+             "`alone`: one image at a time, the device to itself (seconds per image = one image's latency). "
+             "`sheet`: the whole sample sheet with several jobs side by side sharing the device "
              "(run wall seconds per image = throughput). Fit seconds are the three stages' `benchmark:` "
              "files summed, each a separate process (Python start, imports, scene build and kernel compilation included); "
              "loops: the three optimisation loops alone, by the clock of their `loss.csv`.", "",
@@ -222,6 +223,8 @@ def main() -> int:
         return 0
     if args.preset is None:
         parser.error("--preset is required (unless --report)")
+    if args.alone <= 0 and args.jobs <= 0:
+        parser.error("nothing to run: give --alone or --jobs a count above 0")
     if args.variant == "cuda_ad_rgb" and not cuda_available():
         raise SystemExit("gpu_presets: error: no CUDA GPU that Dr.Jit can start on this machine")
     if not (ROOT / "config" / "presets" / f"{args.preset}.yaml").is_file():
@@ -236,7 +239,7 @@ def main() -> int:
         parts.append(alone.assign(mode="alone"))
     remaining = args.budget_s - (time.perf_counter() - started)
     if args.jobs > 0:
-            parts.append(run_mode(out / run.name, run, images, args.jobs, remaining, True).assign(mode="sheet"))
+        parts.append(run_mode(out / run.name, run, images, args.jobs, remaining, True).assign(mode="sheet"))
     table = pd.concat(parts, ignore_index=True)
     previous = out / "gpu_presets.csv"
     if previous.is_file():
