@@ -1,6 +1,10 @@
 """Benchmark: the normal-map stage's iteration with Mitsuba's backward pass, with ours, and frozen (``dr.freeze``).
 
     .venv/bin/python workflow/benchmarks/backward_pass.py [--run results] [--images SUBSET] [--steps 60]
+        [--variant llvm_ad_rgb] [--name backward_pass]
+
+On a CUDA GPU (where tracing, which freezing removes, is expected to be a larger share of a
+step): ``--variant cuda_ad_rgb --name backward_pass_cuda``.
 
 For each image it builds the normal-map stage's scene from the run's material
 stage (``<run>/fit/<image>/material``) and prepared photo, and runs the stage's
@@ -19,7 +23,7 @@ It reports the milliseconds per step after ``--warm-up`` steps (alone on
 ``--threads`` threads: run it on an otherwise idle machine), the largest
 difference between the first step's gradients of ``mitsuba`` and ``direct``
 (same seeds) relative to the largest gradient, and the largest difference of
-the height maps after the last step. Writes ``results/bench/backward_pass.{csv,md}``.
+the height maps after the last step. Writes ``results/bench/<name>.{csv,md}``.
 """
 from __future__ import annotations
 
@@ -112,35 +116,35 @@ def descend(mi: Any, step: Callable, texture: int, iterations: int, warm_up: int
     return 1000 * (time.perf_counter() - started) / (iterations - warm_up), first_gradient, np.array(opt["height"])
 
 
-def measure_image(run: Path, image: str, iterations: int, warm_up: int, threads: int) -> list[dict[str, Any]]:
+def measure_image(run: Path, image: str, iterations: int, warm_up: int, threads: int, variant: str) -> list[dict[str, Any]]:
     """One row per variant for ``image`` (run in a process of its own: see :func:`measure`)."""
     from clothscope.core.runtime import mitsuba_for
     from clothscope.fit import integrator
 
     settings = validated_config()["fit"]["normals"]
-    mi = mitsuba_for("llvm_ad_rgb", threads)
+    mi = mitsuba_for(variant, threads)
     direct_backward = integrator.splats_one_pixel_per_sample
     scene, target = stage_scene(mi, run, image, settings["resolution"], settings["texture"], settings["sampler"])
     results = {}
-    for variant in VARIANTS:
-        integrator.splats_one_pixel_per_sample = (lambda film: False) if variant == "mitsuba" else direct_backward
+    for way in VARIANTS:
+        integrator.splats_one_pixel_per_sample = (lambda film: False) if way == "mitsuba" else direct_backward
         step = step_function(mi, scene, target, settings["texture"], settings["spp"], settings["spp_grad"],
-                             frozen=variant.endswith("frozen"))
-        results[variant] = descend(mi, step, settings["texture"], iterations, warm_up, settings["learning_rate"])
+                             frozen=way.endswith("frozen"))
+        results[way] = descend(mi, step, settings["texture"], iterations, warm_up, settings["learning_rate"])
     reference_gradient, reference_height = results["mitsuba"][1], results["mitsuba"][2]
     scale = float(np.abs(reference_gradient).max()) or 1.0
-    return [{"image_id": image, "variant": variant, "ms_per_step": ms,
+    return [{"image_id": image, "variant": way, "mitsuba_variant": str(mi.variant()), "ms_per_step": ms,
              "first_gradient_difference": float(np.abs(gradient - reference_gradient).max()) / scale,
              "height_difference": float(np.abs(height - reference_height).max())}
-            for variant, (ms, gradient, height) in results.items()]
+            for way, (ms, gradient, height) in results.items()]
 
 
-def measure(run: Path, images: list[str], iterations: int, warm_up: int, threads: int) -> pd.DataFrame:
+def measure(run: Path, images: list[str], iterations: int, warm_up: int, threads: int, variant: str) -> pd.DataFrame:
     """One row per image and variant; each image in a fresh process (a second scene's frozen recording crashed Dr.Jit 1.5)."""
     rows = []
     for image in images:
         with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
-            image_rows = pool.submit(measure_image, run, image, iterations, warm_up, threads).result()
+            image_rows = pool.submit(measure_image, run, image, iterations, warm_up, threads, variant).result()
         rows += image_rows
         logging.info("%s: %s", image, ", ".join(f"{r['variant']} {r['ms_per_step']:.1f} ms" for r in image_rows))
     return pd.DataFrame(rows)
@@ -154,11 +158,13 @@ def main() -> None:
     parser.add_argument("--warm-up", type=int, default=10)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
+    parser.add_argument("--variant", default="llvm_ad_rgb", choices=("llvm_ad_rgb", "cuda_ad_rgb"), help="Mitsuba variant")
+    parser.add_argument("--name", default="backward_pass", help="report name (<out>/<name>.{csv,md})")
     args = parser.parse_args()
     if not 0 <= args.warm_up < args.steps:
         raise SystemExit(f"--warm-up must lie in [0, --steps), got {args.warm_up} and {args.steps}")
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    table = measure(args.run, [i for i in args.images.split(",") if i], args.steps, args.warm_up, args.threads)
+    table = measure(args.run, [i for i in args.images.split(",") if i], args.steps, args.warm_up, args.threads, args.variant)
     summary = table.groupby("variant", sort=False).agg(
         images=("image_id", "count"), median_ms_per_step=("ms_per_step", "median"),
         max_first_gradient_difference=("first_gradient_difference", "max"), max_height_difference=("height_difference", "max"))
@@ -167,13 +173,14 @@ def main() -> None:
     config = validated_config()["fit"]["normals"]
     lines = [f"The normal-map stage's step ({config['resolution']} px, {config['spp']} + {config['spp_grad']} spp, "
              f"{config['texture']} texels) from a flat height map, {args.steps} steps of which the last "
-             f"{args.steps - args.warm_up} are timed, alone on {args.threads} threads, each image in a process of its own; the three "
+             f"{args.steps - args.warm_up} are timed, `{args.variant}`, alone on {args.threads} threads (LLVM), "
+             "each image in a process of its own; the three "
              "variants run one after the other per image.", "",
              summary.reset_index().to_markdown(index=False, floatfmt=".3g"), "",
              "Gradient difference: the largest difference of the first step's gradient from `mitsuba`'s (same seeds), "
              "over `mitsuba`'s largest gradient. Height difference: the largest difference of the height map after the "
              "last step from `mitsuba`'s, in texel widths."]
-    publish(args.out, "backward_pass", table, "\n".join(lines) + "\n", float_format="%.4g")
+    publish(args.out, args.name, table, "\n".join(lines) + "\n", float_format="%.4g")
 
 
 if __name__ == "__main__":

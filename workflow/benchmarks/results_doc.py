@@ -362,6 +362,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Where a fit job's seconds go", ("bench/job_costs.md",), f"{py}/job_costs.py"),
         BenchmarkReport("The normal-map step: backward pass and freezing", ("bench/backward_pass.md",),
                         f"{py}/backward_pass.py"),
+        BenchmarkReport("The normal-map step on a CUDA GPU: backward pass and freezing", ("bench/backward_pass_cuda.md",),
+                        f"{py}/backward_pass.py --variant cuda_ad_rgb --name backward_pass_cuda (on a GPU machine)"),
         BenchmarkReport("A rerun from scratch against the run", ("bench/rerun_identity.md",), f"{py}/rerun_identity.py"),
         BenchmarkReport("Scaling with cores and resolution", ("bench/scaling/scaling.md",), f"{py}/scaling.py"),
         BenchmarkReport("The `paper` preset's projected time", ("reports/paper_projection.md",), f"{py}/paper_projection.py"),
