@@ -363,7 +363,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The normal-map step: backward pass and freezing", ("bench/backward_pass.md",),
                         f"{py}/backward_pass.py"),
         BenchmarkReport("The normal-map step on a CUDA GPU: backward pass and freezing", ("bench/backward_pass_cuda.md",),
-                        f"{py}/backward_pass.py --variant cuda_ad_rgb --name backward_pass_cuda (on a GPU machine)"),
+                        f"{py}/backward_pass.py --variant cuda_ad_rgb --name backward_pass_cuda"),
         BenchmarkReport("A rerun from scratch against the run", ("bench/rerun_identity.md",), f"{py}/rerun_identity.py"),
         BenchmarkReport("Scaling with cores and resolution", ("bench/scaling/scaling.md",), f"{py}/scaling.py"),
         BenchmarkReport("The `paper` preset's projected time", ("reports/paper_projection.md",), f"{py}/paper_projection.py"),
