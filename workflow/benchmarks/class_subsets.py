@@ -17,12 +17,10 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, publish, run_tables, validated_config
+from harness import ROOT, publish, record_inputs, run_tables, validated_config
 
-from clothscope.classify.feature_sets import classifier_candidates, joined_table, joined_tiles
 from clothscope.classify.loocv import loocv
 from clothscope.classify.paper_tables import PAPER_EXPERIMENTS
-from clothscope.features.sources import STATUS_OK
 
 
 def classify_config() -> dict:
@@ -32,11 +30,7 @@ def classify_config() -> dict:
 
 def scored_subsets(results: Path, label: str, settings: dict) -> list[dict]:
     """One row per paper experiment: LOOCV of the classifier of record on those classes' images in ``results``."""
-    tables, tile_tables = run_tables(results)
-    table = joined_table(tables)
-    tiles = joined_tiles(tables, tile_tables)
-    table = table[table["status"] == STATUS_OK]
-    candidates = classifier_candidates(settings["feature_set"], "fitted", table.columns)
+    table, tiles, candidates = record_inputs(*run_tables(results), settings["feature_set"])
     rows = []
     for experiment in PAPER_EXPERIMENTS:
         subset = table[table["fabric_class"].isin(experiment.classes)]

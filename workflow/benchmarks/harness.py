@@ -13,8 +13,10 @@ from pathlib import Path
 
 import pandas as pd
 
+from clothscope.classify.feature_sets import classifier_candidates, joined_table, joined_tiles
 from clothscope.core.atomic import write_text
 from clothscope.evaluate.accuracy import benchmark_seconds
+from clothscope.features.sources import STATUS_OK
 
 ROOT = Path(__file__).resolve().parents[2]
 STAGES = ("geometry", "material", "normals")
@@ -42,6 +44,16 @@ def run_tables(run: Path, sources: tuple[str, ...] = ("fitted", "photo")) -> tup
     tiles = {s: pd.read_parquet(run / "features" / s / "tiles" / "table.parquet") for s in sources
              if (run / "features" / s / "tiles" / "table.parquet").is_file()}
     return tables, tiles
+
+
+def record_inputs(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.DataFrame] | None,
+                  feature_set: str) -> tuple[pd.DataFrame, pd.DataFrame | None, dict[str, list[str]]]:
+    """What the ``classify`` rule's LOOCV reads from a run's fitted and photo tables: the usable joined rows,
+    their tile rows (None without tile tables) and the candidate column sets of ``feature_set``."""
+    sources = {s: tables[s] for s in ("fitted", "photo")}
+    joined = joined_table(sources)
+    return (joined[joined["status"] == STATUS_OK], joined_tiles(sources, tile_tables),
+            classifier_candidates(feature_set, "fitted", joined.columns))
 
 
 def write_sheet(images: list[str] | None, target: Path) -> Path:

@@ -18,22 +18,17 @@ from pathlib import Path
 
 import pandas as pd
 from class_subsets import classify_config
-from harness import ROOT, publish, run_tables, shown
+from harness import ROOT, publish, record_inputs, run_tables, shown
 
-from clothscope.classify.feature_sets import PHOTO_GROUPS, classifier_candidates, joined_table, joined_tiles
+from clothscope.classify.feature_sets import PHOTO_GROUPS
 from clothscope.classify.loocv import loocv
-from clothscope.features.sources import STATUS_OK
 
 LISTS = ("without the photo's own sets", "with them (default)")
 
 
 def run_rows(run: Path) -> list[dict]:
     """The classifier of record's LOOCV on one run, under each candidate list."""
-    tables, tile_tables = run_tables(run)
-    joined = joined_table(tables)
-    tiles = joined_tiles(tables, tile_tables)
-    ok = joined[joined["status"] == STATUS_OK]
-    everything = classifier_candidates("auto", "fitted", joined.columns)
+    ok, tiles, everything = record_inputs(*run_tables(run), "auto")
     without = {name: columns for name, columns in everything.items() if name not in PHOTO_GROUPS}
     settings = classify_config()
     rows = []

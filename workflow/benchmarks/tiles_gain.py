@@ -16,22 +16,17 @@ from pathlib import Path
 
 import pandas as pd
 from class_subsets import classify_config
-from harness import ROOT, publish, run_tables, shown
+from harness import ROOT, publish, record_inputs, run_tables, shown
 
-from clothscope.classify.feature_sets import classifier_candidates, compare_feature_sets, joined_table, joined_tiles
+from clothscope.classify.feature_sets import compare_feature_sets
 from clothscope.classify.loocv import loocv
-from clothscope.features.sources import STATUS_OK
 
 MODES = ("whole images", "with tiles")
 
 
 def record_row(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.DataFrame] | None, settings: dict) -> dict:
     """The classifier of record's LOOCV on one run's fitted and photo tables (tiles or none)."""
-    sources = {s: tables[s] for s in ("fitted", "photo")}
-    joined = joined_table(sources)
-    ok = joined[joined["status"] == STATUS_OK]
-    tiles = joined_tiles(sources, tile_tables) if tile_tables else None
-    candidates = classifier_candidates(settings["feature_set"], "fitted", joined.columns)
+    ok, tiles, candidates = record_inputs(tables, tile_tables, settings["feature_set"])
     result = loocv(ok, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles)
     return {"feature_set": "classifier of record", "correct": result.correct, "n": result.n}
 
