@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ from clothscope.fit import jobs
 from clothscope.fit.effects import Evidence, geometry_evidence, plan_stage
 from clothscope.fit.loop import LoopSettings, optimise, render_seed
 from clothscope.fit.model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
-from clothscope.fit.normals import NormalSettings, cavity_factor_np, height_to_normals_np, initial_height
+from clothscope.fit.normals import NormalSettings, cavity_factor_np, height_to_normals_np, initial_height, relief_prior
 from clothscope.prepare.image import prepare_image
 
 LOG = logging.getLogger("test_fit")
@@ -177,6 +178,25 @@ def test_hard_cases_stay_finite(mi, tmp_path, case):
         clipped = json.loads((tmp_path / "prepared" / "status.json").read_text())["clipped_fraction"]
         assert 0.0 < clipped < 0.5
     assert_all_finite(state, tmp_path / "fit" / "normals")
+    prior = state["relief_prior"]  # the light the material stage fitted decides the prior, and the state says so
+    assert prior["near_camera"] == (state["scene"]["light"]["polar_deg"] < TINY["normals"].near_camera_deg)
+    assert state["settings"]["smoothness"] == prior["smoothness"]
+
+
+@pytest.mark.parametrize("polar, smoothness, near_weight, expected", [
+    (5.0, 0.0, 0.001, 0.001),  # a flash or ring light: the prior
+    (9.9, 0.0, 0.001, 0.001),
+    (10.0, 0.0, 0.001, 0.0),  # at the threshold and beyond: the configured smoothness
+    (30.0, 0.0, 0.001, 0.0),
+    (5.0, 0.01, 0.001, 0.01),  # a larger configured weight is kept
+    (5.0, 0.0, 0.0, 0.0),  # near_camera_smoothness 0 switches it off
+])
+def test_relief_prior_only_under_a_light_near_the_camera(polar, smoothness, near_weight, expected):
+    settings = replace(TINY["normals"], smoothness=smoothness, near_camera_deg=10.0, near_camera_smoothness=near_weight)
+    fitted_with, record = relief_prior(settings, PointLight(polar, 120.0))
+    assert fitted_with.smoothness == expected == record["smoothness"]
+    assert record["near_camera"] == (polar < 10.0) and record["light_from_camera_deg"] == polar
+    assert replace(fitted_with, smoothness=settings.smoothness) == settings  # nothing else changes
 
 
 def test_rejected_image_is_skipped_by_every_stage(tmp_path):

@@ -7,7 +7,14 @@ profile runs them), into an emptied folder per variant; the variants' order
 reverses every round, so a drift in the machine's speed falls on all of them
 alike. Seconds and peak memory come from the rules' ``benchmark:`` files.
 
+The prepared photos are copied from the main run unless ``--prepare`` is given:
+then every round also prepares the photos from the files the sheet names (any
+sample sheet, ``--sheet``; a field set's 1024-2048 px photos, for example), and
+the table adds the prepare job's seconds and memory, the photo's native size and
+``image_s`` (prepare and fit).
+
     .venv/bin/python workflow/benchmarks/fit_speed.py [--variants default,lean,fast] [--images ...] [--rounds 2]
+        [--sheet config/samples.tsv] [--prepare]
 
 Writes ``<out>/fit_speed.csv`` (one row per image, variant and round) and
 ``<out>/fit_speed.md`` (medians per variant and each variant's time as a
@@ -22,7 +29,9 @@ from pathlib import Path
 
 import pandas as pd
 import yaml
-from harness import ROOT, STAGES, TWO_PER_CLASS, fit_costs, publish, seed_prepared, snakemake, write_sheet
+from harness import ROOT, STAGES, TWO_PER_CLASS, fit_costs, publish, seed_prepared, shown, snakemake, write_sheet
+
+from clothscope.evaluate.accuracy import benchmark_seconds
 
 #: variant -> (preset, overlay of knobs)
 VARIANTS: dict[str, tuple[str, dict]] = {
@@ -33,31 +42,53 @@ VARIANTS: dict[str, tuple[str, dict]] = {
 }
 
 
-def fit_variant(name: str, images: list[str], folder: Path) -> pd.DataFrame:
-    """Fit ``images`` with variant ``name`` into the emptied ``folder``; one row of stage seconds and memory per image."""
+def prepare_costs(folder: Path, image: str) -> dict[str, float]:
+    """The prepare job's seconds and peak RSS MB, the photo's native long side and ``image_s`` (prepare and fit)."""
+    seconds, rss = benchmark_seconds(folder / "benchmarks" / "prepare" / f"{image}.tsv")
+    status = json.loads((folder / "prepared" / image / "status.json").read_text(encoding="utf-8"))
+    return {"prepare_s": seconds, "prepare_max_rss_mb": rss, "native_px": max(status.get("source_size") or [0])}
+
+
+def fit_variant(name: str, images: list[str], folder: Path, source: Path, prepare: bool) -> pd.DataFrame:
+    """Fit ``images`` of the sheet ``source`` with variant ``name`` into the emptied ``folder`` (preparing the photos
+    too with ``prepare``); one row of stage seconds and memory per image."""
     preset, overlay = VARIANTS[name]
     shutil.rmtree(folder, ignore_errors=True)
     folder.mkdir(parents=True)
-    for image in images:
-        seed_prepared(folder, image)
+    if not prepare:
+        for image in images:
+            seed_prepared(folder, image)
     (folder / "overlay.yaml").write_text(json.dumps(overlay))
-    sheet = write_sheet(images, folder / "samples.tsv")
+    sheet = write_sheet(images, folder / "samples.tsv", source)
     snakemake(["--configfile", "config/config.yaml", str(folder / "overlay.yaml"), "--quiet", "all", "--config",
                f"preset={preset}", f"samples={sheet}", f"results={folder}", "--",
                *[str(folder / "fit" / image / "normals") for image in images]], capture=True)
-    return pd.DataFrame([{"image_id": image, "variant": name} | fit_costs(folder, image) for image in images])
+    rows = []
+    for image in images:
+        row = {"image_id": image, "variant": name} | fit_costs(folder, image)
+        if prepare:
+            row |= prepare_costs(folder, image)
+            row["image_s"] = row["prepare_s"] + row["fit_s"]
+            row["max_rss_mb"] = max(row["max_rss_mb"], row["prepare_max_rss_mb"])
+        rows.append(row)
+    return pd.DataFrame(rows)
 
 
-def summary(table: pd.DataFrame, names: list[str], images: int, rounds: int) -> str:
+def summary(table: pd.DataFrame, names: list[str], images: int, rounds: int, source: Path) -> str:
     """Markdown: medians per variant and each one's median fit time as a fraction of the first variant's."""
-    medians = table.groupby("variant")[[f"{stage}_s" for stage in STAGES] + ["fit_s"]].median().reindex(names)
+    timed = ["prepare_s"] if "prepare_s" in table else []
+    timed += [f"{stage}_s" for stage in STAGES] + ["fit_s"] + (["image_s"] if "image_s" in table else [])
+    medians = table.groupby("variant")[timed].median().reindex(names)
     medians["max_rss_mb"] = table.groupby("variant")["max_rss_mb"].max().reindex(names)
     medians[f"fit_s / {names[0]}"] = medians["fit_s"] / medians.loc[names[0], "fit_s"]
     overlays = [f"- `{name}`: preset `{VARIANTS[name][0]}`, overlay `{json.dumps(VARIANTS[name][1])}`" for name in names]
+    photos = (f"The photos are {int(table['native_px'].min())}-{int(table['native_px'].max())} px on their long side "
+              "and were prepared in every round (`prepare_s`; `image_s` is prepare and fit; `max_rss_mb` is the "
+              "largest of the four jobs'). " if "native_px" in table else "")
     return "\n".join(["# Fit time per image, variants side by side", "",
-                      f"{images} images, {rounds} rounds (the variants' order reversed every round); all three fit stages "
-                      "through snakemake, two images side by side on two cores, one Dr.Jit thread each. "
-                      "Medians over images and rounds of the rules' `benchmark:` seconds.", "", *overlays, "",
+                      f"{images} images of `{shown(source)}`, {rounds} rounds (the variants' order reversed every round); "
+                      "all three fit stages through snakemake, two images side by side on two cores, one Dr.Jit thread "
+                      f"each. {photos}Medians over images and rounds of the rules' `benchmark:` seconds.", "", *overlays, "",
                       medians.round(3).to_markdown(), ""])
 
 
@@ -67,6 +98,8 @@ def main() -> int:
     parser.add_argument("--images", default=TWO_PER_CLASS)
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--out", default="results/bench/fit_speed")
+    parser.add_argument("--sheet", default="config/samples.tsv", help="sample sheet the images are read from")
+    parser.add_argument("--prepare", action="store_true", help="prepare the photos in every round instead of copying the main run's")
     args = parser.parse_args()
     names, images = args.variants.split(","), args.images.split(",")
     unknown = sorted(set(names) - set(VARIANTS))
@@ -74,14 +107,16 @@ def main() -> int:
         raise SystemExit(f"fit_speed: error: unknown variant(s) {', '.join(unknown)}; choose from {', '.join(VARIANTS)}")
     if args.rounds < 1:
         raise SystemExit(f"fit_speed: error: --rounds must be at least 1, got {args.rounds}")
-    out = (ROOT / args.out).resolve()
+    out, source = (ROOT / args.out).resolve(), (ROOT / args.sheet).resolve()
+    if not source.is_file():
+        raise SystemExit(f"fit_speed: error: no sample sheet at {args.sheet}")
     tables = []
     for round_ in range(args.rounds):
         for name in names if round_ % 2 == 0 else names[::-1]:
-            tables.append(fit_variant(name, images, out / "runs" / name).assign(round=round_))
+            tables.append(fit_variant(name, images, out / "runs" / name, source, args.prepare).assign(round=round_))
             print(f"round {round_} {name}: median {tables[-1]['fit_s'].median():.2f} s per image", flush=True)
     table = pd.concat(tables, ignore_index=True)
-    publish(out, "fit_speed", table, summary(table, names, len(images), args.rounds))
+    publish(out, "fit_speed", table, summary(table, names, len(images), args.rounds, source))
     return 0
 
 

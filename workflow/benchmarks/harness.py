@@ -56,13 +56,13 @@ def record_inputs(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.Dat
             classifier_candidates(feature_set, "fitted", joined.columns))
 
 
-def write_sheet(images: list[str] | None, target: Path) -> Path:
-    """Write the rows of ``config/samples.tsv`` for ``images`` (None or ``["all"]``: every row) to ``target``."""
-    sheet = pd.read_csv(ROOT / "config" / "samples.tsv", sep="\t", dtype=str, keep_default_na=False)
+def write_sheet(images: list[str] | None, target: Path, source: Path = ROOT / "config" / "samples.tsv") -> Path:
+    """Write the rows of the sample sheet ``source`` for ``images`` (None or ``["all"]``: every row) to ``target``."""
+    sheet = pd.read_csv(source, sep="\t", dtype=str, keep_default_na=False)
     if images is not None and images != ["all"]:
         missing = sorted(set(images) - set(sheet["image_id"]))
         if missing:
-            raise SystemExit(f"{Path(sys.argv[0]).stem}: error: not in config/samples.tsv: {', '.join(missing)}")
+            raise SystemExit(f"{Path(sys.argv[0]).stem}: error: not in {shown(source)}: {', '.join(missing)}")
         sheet = sheet[sheet["image_id"].isin(images)]
     target.parent.mkdir(parents=True, exist_ok=True)
     sheet.to_csv(target, sep="\t", index=False)

@@ -60,7 +60,7 @@ def fit_one(job: tuple[str, str, dict]) -> dict:
     from clothscope.core.runtime import mitsuba_for
     from clothscope.fit.colour import choose_colour_model
     from clothscope.fit.effects import geometry_evidence, plan_stage
-    from clothscope.fit.normals import NormalSettings, fit_normals
+    from clothscope.fit.normals import NormalSettings, fit_normals, relief_prior
     from clothscope.fit.outputs import load_state
     from clothscope.fit.target import at_resolution, load_prepared
 
@@ -70,7 +70,7 @@ def fit_one(job: tuple[str, str, dict]) -> dict:
     fit, _ = load_state(ROOT / "results" / "fit" / image / "material")
     photo = load_prepared(ROOT / "results" / "prepared" / image)
     plan = plan_stage("normals", geometry_evidence(fit.grid, fit.camera, fit.light))
-    knobs = NormalSettings(**settings)
+    knobs, _ = relief_prior(NormalSettings(**settings), fit.light)  # as the fit_normals job chooses its prior
     started = time.perf_counter()
     colour = choose_colour_model(knobs.colour_model, photo.image, knobs.texture, fit.margin)
     _, material, _, _ = fit_normals(mi, fit, at_resolution(photo, settings["resolution"]), plan, knobs,

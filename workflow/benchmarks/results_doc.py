@@ -28,6 +28,8 @@ from clothscope.core.atomic import write_text
 from clothscope.core.config import schema_defaults
 
 THIS_COMMAND = ".venv/bin/python workflow/benchmarks/results_doc.py"
+#: The three-weave set's photos timed from prepare to the normal map: the first two of each class.
+FIELD_TIMED = "broadcloth_00,broadcloth_01,satin_00,satin_01,twill_00,twill_01"
 
 
 @dataclass(frozen=True)
@@ -65,7 +67,7 @@ def not_measured(command: str) -> str:
 
 
 def workflow_runs(results: Path) -> list[Run]:
-    """The design run, the held-out runs, the capture-realistic field set and the colour-texture experiment, with their commands."""
+    """The design run, the held-out runs, the capture-realistic field sets and the colour-texture experiment, with their commands."""
     r = shown(results)
     own_folder = "" if r == "results" else f" --config results={r}"
     design = ".venv/bin/snakemake --cores 2" + own_folder
@@ -78,12 +80,15 @@ def workflow_runs(results: Path) -> list[Run]:
     confirm = (".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/confirm_1126.yaml"
                f" && .venv/bin/snakemake --cores 2 --config samples={r}/confirm_1126/holdout/samples.tsv "
                f"results={r}/confirm_1126/run")
+    weaves = (".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/field_weaves.yaml"
+              f" && .venv/bin/snakemake --cores 2 --config samples={r}/weaves/field/samples.tsv results={r}/weaves/run")
     default_sheet = ROOT / "config" / "samples.tsv"
     return [
         Run("design", results, default_sheet, design),
         Run("held-out", results / "holdout" / "run", results / "holdout" / "samples.tsv", holdout),
         Run("held-out 1126", results / "confirm_1126" / "run", results / "confirm_1126" / "holdout" / "samples.tsv", confirm),
         Run("field", results / "field" / "run", results / "field" / "samples.tsv", field),
+        Run("three weaves", results / "weaves" / "run", results / "weaves" / "field" / "samples.tsv", weaves),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -355,6 +360,9 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Fit time per image, kernel cache cold and warm", ("bench/fit_timing/fit_timing.md",),
                         f"{py}/fit_timing.py"),
         BenchmarkReport("Fit time per image, settings side by side", ("bench/fit_speed/fit_speed.md",), f"{py}/fit_speed.py"),
+        BenchmarkReport("Fit time per image on field photos, prepare included", ("bench/fit_speed_field/fit_speed.md",),
+                        f"{py}/fit_speed.py --sheet results/weaves/field/samples.tsv --prepare --variants default --rounds 1 "
+                        f"--images {FIELD_TIMED} --out results/bench/fit_speed_field"),
         BenchmarkReport("Run-to-run noise and the lean fit", ("bench/run_figures/run_figures.md",),
                         f"{py}/run_figures.py results results/exp_seed/design results/exp_lean/design results/holdout/run "
                         "results/exp_lean/holdout results/holdout_confirm/run results/exp_seed/confirm results/exp_lean/confirm "

@@ -25,7 +25,7 @@ from clothscope.fit.effects import geometry_evidence, plan_stage
 from clothscope.fit.geometry import GeometrySettings, fit_geometry
 from clothscope.fit.material import MaterialSettings, fit_material
 from clothscope.fit.model import PREVIEW_SAMPLER, FitScene, build_scene, shaded_texture
-from clothscope.fit.normals import NormalSettings, fit_normals, height_to_normals_np
+from clothscope.fit.normals import NormalSettings, fit_normals, height_to_normals_np, relief_prior
 from clothscope.fit.outputs import (
     ALBEDO_FILE,
     COMPARISON_FILE,
@@ -138,7 +138,9 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
         fit, photo, mi, plan = _continue_fit(material_dir, prepared_dir, "normals", variant, threads, full_effects, log)
         colour = choose_colour_model(settings.colour_model, photo.image, settings.texture, fit.margin)
         log.info("colour model: %s", colour.as_record())
-        height, fit.material, loops, shade = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, settings,
+        fitted_with, prior = relief_prior(settings, fit.light)
+        log.info("relief prior: %s", prior["reason"])
+        height, fit.material, loops, shade = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, fitted_with,
                                                          log, colour, sample_seed)
         normals = height_to_normals_np(height).astype(np.float32)
         write_exr(tmp / NORMAL_FILE, normals)
@@ -150,7 +152,7 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
         record = {"effects": [plan.as_record()], "warnings": [w for loop in loops for w in loop.warnings],
                   "stopped": [loop.stopped for loop in loops], "final_loss": min(loop.best_loss for loop in loops),
                   "settings": settings.__dict__, "sample_seed": sample_seed, "material": fit.material.as_dict(), "texels_per_pixel": texels_per_pixel,
-                  "colour_model": colour.as_record()}
+                  "colour_model": colour.as_record(), "relief_prior": prior}
         write_json(tmp / MATERIAL_FILE, {"material": fit.material.as_dict(), "effects": [plan.as_record()],
                                            "refined_jointly_with_normal_map": True, "texels_per_pixel": texels_per_pixel,
                                            "colour_model": colour.as_record()})

@@ -29,6 +29,11 @@ squared 4-neighbour Laplacian of the height map in texel widths: woven and
 knitted relief is smooth at the texel scale, so brightness that changes from
 one pixel to the next (sensor and JPEG noise, fibres, dark holes under a light
 near the camera) is not explained by a tilt that flips from texel to texel.
+When the material stage fitted the light within ``near_camera_deg`` of the
+camera (a flash, a ring or coaxial light), the weight is at least
+``near_camera_smoothness`` (:func:`relief_prior`; 0 by default): the shading is
+then ``1 - |grad h|**2 / 2`` to second order, so the photo barely constrains
+the slopes and nothing else keeps the height map from texel-scale noise.
 
 With ``large_steps_lambda > 0`` the optimiser's variable is not the height
 map but its differential coordinates ``u = (I + lambda L) h`` on the texel
@@ -61,7 +66,7 @@ shade, when there is one), written as ``albedo.exr`` too.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import ModuleType
 from typing import Any
 
@@ -75,7 +80,16 @@ from clothscope.fit.effects import Plan
 from clothscope.fit.large_steps import HeightSteps
 from clothscope.fit.loop import LoopSettings, optimise, render, sigmoid
 from clothscope.fit.material import apply_material, material_from_latents, material_latents
-from clothscope.fit.model import BSDF_KEYS, FitScene, Material, build_scene, flat_normal_texture, shaded_texture, texel_centres
+from clothscope.fit.model import (
+    BSDF_KEYS,
+    FitScene,
+    Material,
+    PointLight,
+    build_scene,
+    flat_normal_texture,
+    shaded_texture,
+    texel_centres,
+)
 from clothscope.fit.target import Target, image_loss
 from clothscope.prepare.shading import shading
 
@@ -100,6 +114,8 @@ class NormalSettings:
     albedo_weight: float  # > 0: fit a shade texture with this L1 prior weight (0: one colour)
     smoothness: float  # weight of the curvature prior: mean squared Laplacian of the height map (texel units)
     large_steps_lambda: float  # > 0: the height map descends in Large Steps coordinates (I + lambda L) h, Uniform Adam
+    near_camera_deg: float  # a fitted light within this angle of the camera raises the curvature prior ...
+    near_camera_smoothness: float  # ... to at least this weight (see relief_prior)
     colour_model: str  # auto, one_colour or dye_layout (clothscope.fit.colour)
     initial_relief: str  # flat, or shading: the height map starts bright-high, dark-low (see initial_height)
     initial_slope: float  # RMS slope of the shading start (tangent of the tilt)
@@ -217,6 +233,22 @@ def albedo_texture(mi: ModuleType, color_latent: Any, size: int, shade_latent: A
     if layout is not None:
         color = [c * ratio for c, ratio in zip(color, layout)]
     return mi.TensorXf(dr.ravel(mi.Color3f(*color)), shape=(size, size, 3))  # a shade, cavity or layout makes it per texel
+
+
+def relief_prior(settings: NormalSettings, light: PointLight) -> tuple[NormalSettings, dict[str, Any]]:
+    """The settings the stage fits with under ``light``, and the record of the choice.
+
+    A light within ``settings.near_camera_deg`` of the camera (on the +z axis, so the
+    angle is the light's polar angle) raises ``smoothness`` to ``near_camera_smoothness``
+    when that is larger; any other light leaves the settings as they are.
+    """
+    near = light.polar_deg < settings.near_camera_deg
+    smoothness = max(settings.smoothness, settings.near_camera_smoothness) if near else settings.smoothness
+    reason = f"light {light.polar_deg:.1f} deg from the camera" + (f", within {settings.near_camera_deg:g}" if near else "")
+    reason += f": curvature prior {smoothness:g}" if smoothness > 0 else ": no curvature prior"
+    record = {"light_from_camera_deg": float(light.polar_deg), "near_camera": bool(near), "smoothness": float(smoothness),
+              "reason": reason}
+    return replace(settings, smoothness=smoothness), record
 
 
 def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: NormalSettings,
