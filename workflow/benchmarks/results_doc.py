@@ -337,6 +337,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
         BenchmarkReport("Feature sets on the design set, the held-out set and both pooled", ("bench/pooled_sets.md",),
                         f"{py}/pooled_sets.py"),
+        BenchmarkReport("Feature sets on the two three-weave sets and both pooled", ("bench/pooled_weaves.md",),
+                        f"{py}/pooled_sets.py --design results/weaves/run --holdout results/weaves_confirm/run --name pooled_weaves"),
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
         BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
