@@ -178,9 +178,10 @@ def test_hard_cases_stay_finite(mi, tmp_path, case):
         clipped = json.loads((tmp_path / "prepared" / "status.json").read_text())["clipped_fraction"]
         assert 0.0 < clipped < 0.5
     assert_all_finite(state, tmp_path / "fit" / "normals")
-    prior = state["relief_prior"]  # the light the material stage fitted decides the prior, and the state says so
-    assert prior["near_camera"] == (state["scene"]["light"]["polar_deg"] < TINY["normals"].near_camera_deg)
-    assert state["settings"]["smoothness"] == prior["smoothness"]
+    prior, knobs = state["relief_prior"], state["settings"]  # the fitted light decides the prior, and the state says so
+    assert prior["near_camera"] == (state["scene"]["light"]["polar_deg"] < knobs["near_camera_deg"])
+    near_weight = max(knobs["smoothness"], knobs["near_camera_smoothness"])
+    assert prior["smoothness"] == (near_weight if prior["near_camera"] else knobs["smoothness"])
 
 
 @pytest.mark.parametrize("polar, smoothness, near_weight, expected", [
@@ -525,6 +526,19 @@ def test_smoothness_prior_lowers_the_fitted_relief_curvature(tmp_path):
     curvatures = {weight: fitted_relief_curvature(tiny_relief_fit(tmp_path / str(weight), smoothness=weight)[1])
                   for weight in (0.0, 0.01)}
     assert curvatures[0.01] < 0.5 * curvatures[0.0]
+
+
+def test_a_light_near_the_camera_fits_with_the_near_camera_prior(tmp_path):
+    """Under the rule (every fitted light counts as near at 90 degrees) the fit is the one configured smoothness gives."""
+    ruled, ruled_dir = tiny_relief_fit(tmp_path / "rule", near_camera_deg=90.0, near_camera_smoothness=0.01)
+    plain, plain_dir = tiny_relief_fit(tmp_path / "plain", smoothness=0.01)
+    assert ruled["relief_prior"]["near_camera"] and ruled["relief_prior"]["smoothness"] == 0.01
+    assert ruled["settings"]["smoothness"] == 0.0  # the configured knobs are recorded as configured
+    # the same fit up to the last digits of two-thread reductions (the prior alone moves the relief far more)
+    assert np.allclose(read_exr(ruled_dir / "height.exr"), read_exr(plain_dir / "height.exr"), atol=1e-4)
+    far, far_dir = tiny_relief_fit(tmp_path / "far", near_camera_deg=0.0, near_camera_smoothness=0.01)
+    assert not far["relief_prior"]["near_camera"] and far["relief_prior"]["smoothness"] == 0.0
+    assert np.abs(read_exr(far_dir / "height.exr") - read_exr(plain_dir / "height.exr")).max() > 1e-2
 
 
 def test_shading_start_puts_the_photo_pattern_into_the_height_map_the_fit_starts_from(tmp_path):
