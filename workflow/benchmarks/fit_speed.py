@@ -7,9 +7,10 @@ profile runs them), into an emptied folder per variant; the variants' order
 reverses every round, so a drift in the machine's speed falls on all of them
 alike. Seconds and peak memory come from the rules' ``benchmark:`` files.
 
-The prepared photos are copied from the main run unless ``--prepare`` is given:
-then every round also prepares the photos from the files the sheet names (any
-sample sheet, ``--sheet``; a field set's 1024-2048 px photos, for example), and
+The prepared photos are copied from the main run unless ``--prepare`` is given
+or ``--sheet`` names another sample sheet (the main run's prepared photos are
+those of ``config/samples.tsv``): then every round also prepares the photos from
+the files the sheet names (a field set's 1024-2048 px photos, for example), and
 the table adds the prepare job's seconds and memory, the photo's native size and
 ``image_s`` (prepare and fit).
 
@@ -43,7 +44,7 @@ VARIANTS: dict[str, tuple[str, dict]] = {
 
 
 def prepare_costs(folder: Path, image: str) -> dict[str, float]:
-    """The prepare job's seconds and peak RSS MB, the photo's native long side and ``image_s`` (prepare and fit)."""
+    """The prepare job's seconds and peak RSS MB, and the photo's native long side."""
     seconds, rss = benchmark_seconds(folder / "benchmarks" / "prepare" / f"{image}.tsv")
     status = json.loads((folder / "prepared" / image / "status.json").read_text(encoding="utf-8"))
     return {"prepare_s": seconds, "prepare_max_rss_mb": rss, "native_px": max(status.get("source_size") or [0])}
@@ -99,7 +100,8 @@ def main() -> int:
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--out", default="results/bench/fit_speed")
     parser.add_argument("--sheet", default="config/samples.tsv", help="sample sheet the images are read from")
-    parser.add_argument("--prepare", action="store_true", help="prepare the photos in every round instead of copying the main run's")
+    parser.add_argument("--prepare", action="store_true",
+                        help="prepare the photos in every round instead of copying the main run's (always with another --sheet)")
     args = parser.parse_args()
     names, images = args.variants.split(","), args.images.split(",")
     unknown = sorted(set(names) - set(VARIANTS))
@@ -110,10 +112,11 @@ def main() -> int:
     out, source = (ROOT / args.out).resolve(), (ROOT / args.sheet).resolve()
     if not source.is_file():
         raise SystemExit(f"fit_speed: error: no sample sheet at {args.sheet}")
+    prepare = args.prepare or source != (ROOT / "config" / "samples.tsv").resolve()
     tables = []
     for round_ in range(args.rounds):
         for name in names if round_ % 2 == 0 else names[::-1]:
-            tables.append(fit_variant(name, images, out / "runs" / name, source, args.prepare).assign(round=round_))
+            tables.append(fit_variant(name, images, out / "runs" / name, source, prepare).assign(round=round_))
             print(f"round {round_} {name}: median {tables[-1]['fit_s'].median():.2f} s per image", flush=True)
     table = pd.concat(tables, ignore_index=True)
     publish(out, "fit_speed", table, summary(table, names, len(images), args.rounds, source))
