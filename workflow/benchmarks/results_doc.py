@@ -335,6 +335,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
+        BenchmarkReport("Tiles on the three-weave set of seed 20261203", ("bench/tiles_gain_weaves.md",),
+                        f"{py}/tiles_gain.py results/weaves/run --name tiles_gain_weaves"),
         BenchmarkReport("Feature sets on the design set, the held-out set and both pooled", ("bench/pooled_sets.md",),
                         f"{py}/pooled_sets.py"),
         BenchmarkReport("Feature sets on the two three-weave sets and both pooled", ("bench/pooled_weaves.md",),
