@@ -80,8 +80,9 @@ def workflow_runs(results: Path) -> list[Run]:
     confirm = (".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/confirm_1126.yaml"
                f" && .venv/bin/snakemake --cores 2 --config samples={r}/confirm_1126/holdout/samples.tsv "
                f"results={r}/confirm_1126/run")
-    weaves = (".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/field_weaves.yaml"
-              f" && .venv/bin/snakemake --cores 2 --config samples={r}/weaves/field/samples.tsv results={r}/weaves/run")
+    weaves, fresh = (f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
+                     f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
+                     for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh")))
     default_sheet = ROOT / "config" / "samples.tsv"
     return [
         Run("design", results, default_sheet, design),
@@ -89,6 +90,7 @@ def workflow_runs(results: Path) -> list[Run]:
         Run("held-out 1126", results / "confirm_1126" / "run", results / "confirm_1126" / "holdout" / "samples.tsv", confirm),
         Run("field", results / "field" / "run", results / "field" / "samples.tsv", field),
         Run("three weaves", results / "weaves" / "run", results / "weaves" / "field" / "samples.tsv", weaves),
+        Run("three weaves, fresh", results / "weaves_fresh" / "run", results / "weaves_fresh" / "field" / "samples.tsv", fresh),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -319,6 +321,9 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "--name field_set_design"),
         BenchmarkReport("Thread periods on the three-weave set (seed 20261203)", ("bench/field_set_weaves.md",),
                         f"{py}/field_set.py --field results/weaves/field --run results/weaves/run --name field_set_weaves"),
+        BenchmarkReport("Thread periods on a fresh three-weave set (seed 20261226)", ("bench/field_set_weaves_fresh.md",),
+                        f"{py}/field_set.py --field results/weaves_fresh/field --run results/weaves_fresh/run "
+                        "--name field_set_weaves_fresh"),
         BenchmarkReport("Thread periods on a fresh nine-class set (seed 20261207)", ("bench/field_set_confirm.md",),
                         f"{py}/field_set.py --field results/period_confirm/field --run results/period_confirm/run "
                         "--name field_set_confirm"),
@@ -337,6 +342,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
         BenchmarkReport("Tiles on the three-weave set of seed 20261203", ("bench/tiles_gain_weaves.md",),
                         f"{py}/tiles_gain.py results/weaves/run --name tiles_gain_weaves"),
+        BenchmarkReport("Tiles on the fresh three-weave set (seed 20261226)", ("bench/tiles_gain_weaves_fresh.md",),
+                        f"{py}/tiles_gain.py results/weaves_fresh/run --name tiles_gain_weaves_fresh"),
         BenchmarkReport("Feature sets on the design set, the held-out set and both pooled", ("bench/pooled_sets.md",),
                         f"{py}/pooled_sets.py"),
         BenchmarkReport("Feature sets on the two three-weave sets and both pooled", ("bench/pooled_weaves.md",),
