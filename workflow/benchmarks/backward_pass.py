@@ -173,7 +173,8 @@ def main() -> None:
     config = validated_config()["fit"]["normals"]
     lines = [f"The normal-map stage's step ({config['resolution']} px, {config['spp']} + {config['spp_grad']} spp, "
              f"{config['texture']} texels) from a flat height map, {args.steps} steps of which the last "
-             f"{args.steps - args.warm_up} are timed, `{args.variant}`, alone on {args.threads} threads (LLVM), "
+             f"{args.steps - args.warm_up} are timed, `{args.variant}`, alone on "
+             f"{'the GPU' if args.variant.startswith('cuda') else f'{args.threads} threads'}, "
              "each image in a process of its own; the three "
              "variants run one after the other per image.", "",
              summary.reset_index().to_markdown(index=False, floatfmt=".3g"), "",

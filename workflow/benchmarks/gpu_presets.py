@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, STAGES, publish, seed_prepared, shown, stage_benchmarks, write_sheet
+from harness import ROOT, STAGES, fit_costs, publish, seed_prepared, shown, write_sheet
 
 from clothscope.core.runtime import cuda_available
 
@@ -101,21 +101,10 @@ def run_mode(results: Path, run: Run, images: list[str], jobs: int, budget_s: fl
     report = results / "reports" / "fit_accuracy.csv"
     accuracy = pd.read_csv(report) if report.is_file() else pd.DataFrame({"image_id": []})
     accuracy = accuracy[accuracy["image_id"].isin(done)].drop(columns=[c for c in accuracy if c.endswith("_s") or "rss" in c])
-    table = pd.DataFrame([{"image_id": image, **stage_costs(results, image)} for image in images]).merge(accuracy, "left", "image_id")
+    table = pd.DataFrame([{"image_id": image, **fit_costs(results, image)} for image in images]).merge(accuracy, "left", "image_id")
     device = gpu_name() if run.variant.startswith("cuda") else "CPU"
     return table.assign(preset=run.preset, variant=run.variant, device=device, jobs=jobs, images_asked=len(images), images_finished=len(done),
                         run_wall_s=round(wall, 1), run_complete=complete, results=shown(results))
-
-
-def stage_costs(results: Path, image: str) -> dict[str, float]:
-    """Seconds and peak RSS MB of each fit stage of ``image`` that finished (NaN for the others), and their sums."""
-    row: dict[str, float] = {}
-    for stage, (seconds, rss) in stage_benchmarks(results, image).items():
-        ran = (results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv").is_file()
-        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = (seconds, rss) if ran else (float("nan"), float("nan"))
-    row["fit_s"] = sum(row[f"{stage}_s"] for stage in STAGES)  # NaN unless every stage finished
-    row["max_rss_mb"] = pd.Series([row[f"{stage}_max_rss_mb"] for stage in STAGES]).max()
-    return row
 
 
 def loop_seconds(results: Path, image: str) -> float:

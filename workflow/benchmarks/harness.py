@@ -15,11 +15,12 @@ import pandas as pd
 
 from clothscope.classify.feature_sets import classifier_candidates, joined_table, joined_tiles
 from clothscope.core.atomic import write_text
+from clothscope.core.config import FIT_STAGES
 from clothscope.evaluate.accuracy import benchmark_seconds
 from clothscope.features.sources import STATUS_OK
 
 ROOT = Path(__file__).resolve().parents[2]
-STAGES = ("geometry", "material", "normals")
+STAGES = FIT_STAGES
 #: one image per class
 SUBSET = "broadcloth_red,canvas_navy,satin_green,chiffon_mustard,cotton_gauze_ivory,knit_jersey_charcoal,velvet_ivory"
 #: two images per class
@@ -109,11 +110,13 @@ def stage_benchmarks(results: Path, image: str) -> dict[str, tuple[float, float]
 
 
 def fit_costs(results: Path, image: str) -> dict[str, float]:
-    """Each fit stage's seconds and peak RSS MB of ``image`` (``<stage>_s``, ``<stage>_max_rss_mb``), their sum
-    ``fit_s`` and their maximum ``max_rss_mb``."""
+    """Each fit stage's seconds and peak RSS MB of ``image`` (``<stage>_s``, ``<stage>_max_rss_mb``; NaN for a stage
+    without a benchmark file, one that did not finish), their sum ``fit_s`` (NaN unless every stage finished) and the
+    largest ``max_rss_mb``."""
     row: dict[str, float] = {}
     for stage, (seconds, rss) in stage_benchmarks(results, image).items():
-        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = seconds, rss
+        ran = (results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv").is_file()
+        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = (seconds, rss) if ran else (float("nan"), float("nan"))
     row["fit_s"] = sum(row[f"{stage}_s"] for stage in STAGES)
-    row["max_rss_mb"] = max(row[f"{stage}_max_rss_mb"] for stage in STAGES)
+    row["max_rss_mb"] = float(pd.Series([row[f"{stage}_max_rss_mb"] for stage in STAGES]).max())
     return row

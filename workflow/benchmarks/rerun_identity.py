@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from harness import ROOT, SUBSET, publish, shown, snakemake, write_sheet
+from harness import ROOT, STAGES, SUBSET, publish, shown, snakemake, write_sheet
 
 #: columns of a stage's loss.csv that hold wall-clock time, not results
 TIMING_COLUMNS = ("seconds",)
@@ -27,7 +27,7 @@ TIMING_COLUMNS = ("seconds",)
 
 def image_outputs(run: Path, image: str) -> list[Path]:
     """Every file a run wrote for one image up to its fitted feature row, relative to the run folder."""
-    folders = [run / "prepared" / image, *(run / "fit" / image / stage for stage in ("geometry", "material", "normals"))]
+    folders = [run / "prepared" / image, *(run / "fit" / image / stage for stage in STAGES)]
     files = [p for folder in folders if folder.is_dir() for p in sorted(folder.rglob("*")) if p.is_file()]
     files.append(run / "features" / "fitted" / f"{image}.parquet")
     return [p.relative_to(run) for p in files if p.exists()]

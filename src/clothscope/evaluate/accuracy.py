@@ -18,7 +18,7 @@ import pandas as pd
 from scipy import ndimage
 
 from clothscope.core.atomic import write_text
-from clothscope.core.config import settings
+from clothscope.core.config import FIT_STAGES, settings
 from clothscope.core.imageio import read_exr
 from clothscope.core.mesh import grid_normals
 from clothscope.core.truth import truth_paths
@@ -326,7 +326,7 @@ def write_accuracy_report(photos: dict[str, str], normals_dirs: list[str], prepa
     """
     rows = []
     for (image, photo), normals_dir, prepared_dir in zip(photos.items(), normals_dirs, prepared_dirs, strict=True):
-        benchmarks = {s: os.path.join(benchmark_root, f"fit_{s}", f"{image}.tsv") for s in ("geometry", "material", "normals")}
+        benchmarks = {s: os.path.join(benchmark_root, f"fit_{s}", f"{image}.tsv") for s in FIT_STAGES}
         rows.append(evaluate_fit(image, Path(normals_dir).parent, truth_paths(Path(photo))["json"], benchmarks,
                                  Path(prepared_dir) / STATUS_FILE))
     frame = pd.DataFrame(rows)

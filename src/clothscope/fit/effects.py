@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from clothscope.core.config import FIT_STAGES
 from clothscope.core.mesh import grid_normals
 from clothscope.fit.integrator import NAME as UNSHADOWED
 from clothscope.fit.model import FitCamera, PointLight
@@ -72,7 +73,7 @@ def plan_stage(stage: str, evidence: Evidence, full_effects: bool = False, full_
     evidence : what is known about the scene.
     full_effects : force the baseline (path tracing with projective gradients, many bounces).
     """
-    if stage not in ("geometry", "material", "normals"):
+    if stage not in FIT_STAGES:
         raise ValueError(f"unknown fit stage {stage!r}")
     if full_effects:
         return Plan(stage, "prb_projective", full_depth, True, ("forced full-effects baseline (fit.full_effects)",))
