@@ -15,6 +15,7 @@ from clothscope.classify.feature_sets import (
     group_columns,
     inverse_rendering_gain,
     mcnemar_p,
+    relief_line,
     report_markdown,
 )
 from clothscope.core.config import settings as config_settings
@@ -224,6 +225,24 @@ def test_feature_sets_compare_on_the_same_images_and_say_what_the_fit_bought():
     assert pd.isna(rows.loc["lbp_photo", "mcnemar_p"])
     assert f"only structure_brdf_fitted was right on {int(rows.loc['structure_brdf_fitted', 'only_this_right'])}" in line
     assert "against the best photo" in report_markdown(report, line, list(tables), "discriminant")
+
+
+def _report(**accuracy: float) -> pd.DataFrame:
+    return pd.DataFrame([{"feature_set": name, "status": "ok", "accuracy": value, "photo_only": name.endswith("_photo")}
+                         for name, value in accuracy.items()])
+
+
+def test_relief_line_sets_the_fitted_set_against_the_true_relief_only_where_it_was_scored():
+    neither = relief_line(_report(structure_truth=1.0, auto_fitted=0.4, lbp_photo=0.5, structure_photo=0.45), "auto_fitted")
+    assert "scores 100.0%, auto_fitted 40.0% and the photo's lbp_photo 50.0%" in neither
+    assert "the class is in the relief, but neither" in neither
+    assert "so the fit loses it" in relief_line(_report(structure_truth=1.0, auto_fitted=0.4, lbp_photo=0.95), "auto_fitted")
+    assert "keeps about as much" in relief_line(_report(structure_truth=1.0, auto_fitted=0.95, lbp_photo=0.5), "auto_fitted")
+    assert relief_line(_report(auto_fitted=0.4, lbp_photo=0.5), "auto_fitted") == ""  # a real photo set: no truth
+    assert relief_line(_report(structure_truth=1.0, auto_fitted=0.4), "auto_fitted") == ""  # no photo-only set
+    empty = pd.DataFrame(columns=["feature_set", "status"])
+    assert neither in report_markdown(empty, "gain", ["fitted"], "none", neither)
+    assert "Against the true relief" not in report_markdown(empty, "gain", ["fitted"], "none")
 
 
 def test_mcnemar_p_is_the_exact_two_sided_binomial_test_of_the_discordant_images():

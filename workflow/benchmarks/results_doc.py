@@ -80,9 +80,10 @@ def workflow_runs(results: Path) -> list[Run]:
     confirm = (".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/confirm_1126.yaml"
                f" && .venv/bin/snakemake --cores 2 --config samples={r}/confirm_1126/holdout/samples.tsv "
                f"results={r}/confirm_1126/run")
-    weaves, fresh = (f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
-                     f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
-                     for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh")))
+    weaves, fresh, period = (
+        f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
+        f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
+        for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh"), ("weaves_period", "weaves_period")))
     default_sheet = ROOT / "config" / "samples.tsv"
     return [
         Run("design", results, default_sheet, design),
@@ -91,6 +92,8 @@ def workflow_runs(results: Path) -> list[Run]:
         Run("field", results / "field" / "run", results / "field" / "samples.tsv", field),
         Run("three weaves", results / "weaves" / "run", results / "weaves" / "field" / "samples.tsv", weaves),
         Run("three weaves, fresh", results / "weaves_fresh" / "run", results / "weaves_fresh" / "field" / "samples.tsv", fresh),
+        Run("three weaves, fourth", results / "weaves_period" / "run", results / "weaves_period" / "field" / "samples.tsv",
+            period),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -324,6 +327,9 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Thread periods on a fresh three-weave set (seed 20261226)", ("bench/field_set_weaves_fresh.md",),
                         f"{py}/field_set.py --field results/weaves_fresh/field --run results/weaves_fresh/run "
                         "--name field_set_weaves_fresh"),
+        BenchmarkReport("Thread periods on a fourth three-weave set (seed 20261227)", ("bench/field_set_weaves_period.md",),
+                        f"{py}/field_set.py --field results/weaves_period/field --run results/weaves_period/run "
+                        "--name field_set_weaves_period"),
         BenchmarkReport("Thread periods on a fresh nine-class set (seed 20261207)", ("bench/field_set_confirm.md",),
                         f"{py}/field_set.py --field results/period_confirm/field --run results/period_confirm/run "
                         "--name field_set_confirm"),
@@ -337,6 +343,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/record_candidates.md",),
                         f"{py}/record_candidates.py results results/holdout/run results/weaves/run "
                         "results/holdout_confirm/run results/weaves_confirm/run"),
+        BenchmarkReport("Classifier of record: one column set per fold against the posteriors of the best K averaged",
+                        ("bench/record_ensemble.md",),
+                        f"{py}/record_candidates.py results results/weaves/run results/confirm_1126/run "
+                        "results/weaves_confirm/run results/weaves_fresh/run --ensemble 1 2 3 5 --name record_ensemble"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),

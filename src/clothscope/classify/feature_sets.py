@@ -105,8 +105,11 @@ FEATURE_SETS = (
     FeatureSet("auto_photo", "chosen inside each fold among the same sets on the photo", (("photo", "auto"),)),
     FeatureSet("auto_truth", "chosen inside each fold among the same sets on ground-truth maps", (("truth", "auto"),)),
     FeatureSet("paper_truth", "the paper's features on ground-truth normal maps", (("truth", "paper"),)),
+    FeatureSet("structure_truth", "structure descriptor of the true relief alone (no BRDF)", (("truth", "structure"),)),
     FeatureSet("structure_brdf_truth", "structure descriptor of the true relief + true BRDF", (("truth", "structure_brdf"),)),
 )
+#: Accuracy (a fraction) within which :func:`relief_line` counts a set as keeping what the true relief holds.
+RELIEF_MARGIN = 0.10
 
 
 def usable(table: pd.DataFrame) -> pd.DataFrame:
@@ -241,6 +244,31 @@ def inverse_rendering_gain(report: pd.DataFrame, fitted_set: str) -> str:
             f"{100 * float(best['accuracy']):.1f}% (LOOCV, same {int(best['n'])} images){paired_clause(fitted.iloc[0])}.")
 
 
+def relief_line(report: pd.DataFrame, fitted_set: str) -> str:
+    """One line, where ground truth was scored: the fitted set against the true relief, or ``""``.
+
+    It sets the true relief's structure descriptor alone (``structure_truth``, no BRDF)
+    against ``fitted_set`` and the best photo-only set, and says which of three cases
+    holds (:data:`RELIEF_MARGIN` apart): the fit keeps about what the relief holds; the
+    photo does and the fit does not, so the fit loses it; or neither does, so the class
+    is in the relief but these photos do not show enough of it to either.
+    """
+    scored = report[report["status"] == "ok"].set_index("feature_set")
+    best = best_photo_only(report)
+    if "structure_truth" not in scored.index or fitted_set not in scored.index or best is None:
+        return ""
+    relief, fitted, photo = (float(scored.at[name, "accuracy"]) for name in ("structure_truth", fitted_set, best["feature_set"]))
+    if relief - fitted < RELIEF_MARGIN:
+        verdict = "the fitted set keeps about as much of the class as the true relief holds"
+    elif relief - photo < RELIEF_MARGIN:
+        verdict = "the photo alone keeps about as much as the true relief and the fitted set does not, so the fit loses it"
+    else:
+        verdict = ("the class is in the relief, but neither the photo's luminance nor the fitted relief keeps enough of it: "
+                   "the limit is what these photos show of the relief and what the fit recovers, not the descriptor")
+    return (f"Against the true relief: its structure descriptor alone (no BRDF) scores {100 * relief:.1f}%, "
+            f"{fitted_set} {100 * fitted:.1f}% and the photo's {best['feature_set']} {100 * photo:.1f}%; {verdict}.")
+
+
 def _paired_counts(row: pd.Series) -> tuple[int, int, float] | None:
     """``(only_this_right, only_photo_right, mcnemar_p)`` of a :func:`paired_with_best_photo` row; ``None`` if unpaired."""
     try:
@@ -270,13 +298,13 @@ def _percent(value: float) -> str:
     return f"{100.0 * value:.1f}%" if math.isfinite(value) else "-"
 
 
-def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str], subspace: str) -> str:
-    """The Markdown of ``feature_sets.md``."""
+def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str], subspace: str, relief: str = "") -> str:
+    """The Markdown of ``feature_sets.md`` (``relief``: :func:`relief_line`, after the gain line where not empty)."""
     lines = ["# Feature sets side by side", "",
              f"LOOCV QDA (the classifier of record, Ledoit-Wolf shrinkage"
              f"{', in the discriminant subspace of each fold' if subspace == 'discriminant' else ''}) on the same labelled images, from the "
              f"sources {', '.join(sources)}. 95% Wilson intervals; chance is 1 / number of classes.", "",
-             gain_line, "",
+             gain_line, "", *([relief, ""] if relief else []),
              "The column 'against the best photo' pairs a set with the most accurate photo-only set on the same "
              "images: +a / -b counts the images only this set (only the photo's set) got right, and p is the exact "
              "McNemar test of that split (p >= 0.05: not significant at the 5% level on these images).", "",
@@ -304,9 +332,12 @@ def feature_sets_job(table_paths: dict[str, str], reg: float | str, subspace: st
     report = compare_feature_sets(tables, reg, subspace, tile_tables)
     line = inverse_rendering_gain(report, fitted_set)
     write_text(Path(csv_path), report.to_csv(index=False, lineterminator="\n", float_format="%.6f"))
-    write_text(Path(md_path), report_markdown(report, line, list(tables), subspace))
+    relief = relief_line(report, fitted_set)
+    write_text(Path(md_path), report_markdown(report, line, list(tables), subspace, relief))
     if log is not None:
         log.info("%s", line)
+        if relief:
+            log.info("%s", relief)
     return report
 
 
