@@ -358,6 +358,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/pooled_sets.py"),
         BenchmarkReport("Feature sets on the two three-weave sets and both pooled", ("bench/pooled_weaves.md",),
                         f"{py}/pooled_sets.py --design results/weaves/run --holdout results/weaves_confirm/run --name pooled_weaves"),
+        BenchmarkReport("Feature sets on the two fresh three-weave sets (seeds 20261226 and 20261227) and both pooled",
+                        ("bench/pooled_weaves_fresh.md",),
+                        f"{py}/pooled_sets.py --design results/weaves_fresh/run --holdout results/weaves_period/run "
+                        "--name pooled_weaves_fresh"),
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
         BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
