@@ -105,18 +105,18 @@ def snakemake(args: list[str], cores: int = 2, home: str | None = None, capture:
 
 
 def stage_benchmarks(results: Path, image: str) -> dict[str, tuple[float, float]]:
-    """(seconds, peak RSS MB) of each fit stage of ``image`` from the rules' ``benchmark:`` files."""
-    return {stage: benchmark_seconds(results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv") for stage in STAGES}
+    """(seconds, peak RSS MB) of each fit stage of ``image`` from the rules' ``benchmark:`` files; NaN for a stage
+    without one (it did not finish)."""
+    paths = {stage: results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv" for stage in STAGES}
+    return {stage: benchmark_seconds(path) if path.is_file() else (float("nan"), float("nan")) for stage, path in paths.items()}
 
 
 def fit_costs(results: Path, image: str) -> dict[str, float]:
     """Each fit stage's seconds and peak RSS MB of ``image`` (``<stage>_s``, ``<stage>_max_rss_mb``; NaN for a stage
-    without a benchmark file, one that did not finish), their sum ``fit_s`` (NaN unless every stage finished) and the
-    largest ``max_rss_mb``."""
+    that did not finish), their sum ``fit_s`` (NaN unless every stage finished) and the largest ``max_rss_mb``."""
     row: dict[str, float] = {}
     for stage, (seconds, rss) in stage_benchmarks(results, image).items():
-        ran = (results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv").is_file()
-        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = (seconds, rss) if ran else (float("nan"), float("nan"))
+        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = seconds, rss
     row["fit_s"] = sum(row[f"{stage}_s"] for stage in STAGES)
     row["max_rss_mb"] = float(pd.Series([row[f"{stage}_max_rss_mb"] for stage in STAGES]).max())
     return row
