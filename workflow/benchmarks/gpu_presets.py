@@ -18,7 +18,9 @@ The default preset's fits are also set against a CPU run of the same images (``-
 its ``reports/fit_accuracy.csv``).
 
 Rows of ``<out>/gpu_presets.csv`` (one per image, preset and mode) are replaced per preset, so
-presets can be run one call at a time; ``<out>/gpu_presets.md`` summarises all of them.
+presets can be run one call at a time; ``<out>/gpu_presets.md`` summarises all of them. To compare
+job counts, run each into a folder of its own under one ``--out`` (``<out>/j16``, ``<out>/j24``) and
+write their common report with ``--report --out <out>``.
 With ``--variant cuda_ad_rgb`` (the default) it needs a CUDA GPU that Dr.Jit can start, and
 exits with an error otherwise; ``--variant llvm_ad_rgb`` runs the same on the CPU.
 """
@@ -119,7 +121,7 @@ def summary(table: pd.DataFrame) -> pd.DataFrame:
     """Per preset and mode: images finished, wall seconds of the run and per image, stage medians, reconstruction."""
     table = table.assign(loops_s=[loop_seconds(ROOT / folder, image) for folder, image in zip(table["results"], table["image_id"])])
     rows = []
-    for (preset, variant, mode), group in table.groupby(["preset", "variant", "mode"], sort=False):
+    for (preset, variant, mode, _), group in table.groupby(["preset", "variant", "mode", "jobs"], sort=False):
         first = group.iloc[0]
         finished = int(first["images_finished"])
         row = {"preset": preset, "variant": variant, "device": first["device"], "mode": mode, "jobs side by side": int(first["jobs"]),
@@ -140,6 +142,7 @@ def summary(table: pd.DataFrame) -> pd.DataFrame:
 def against_cpu(table: pd.DataFrame, cpu_report: Path) -> str:
     """The default preset's whole-sheet fit on the GPU against a CPU run's ``fit_accuracy.csv`` of the same images."""
     gpu = table[(table["preset"] == "default") & (table["mode"] == "sheet") & (table["variant"] == "cuda_ad_rgb")]
+    gpu = gpu[gpu["jobs"] == gpu["jobs"].min()]  # one sheet run where several job counts were run
     if not cpu_report.is_file() or gpu.empty or "psnr_db" not in gpu:
         return ""
     both = pd.read_csv(cpu_report).merge(gpu, on="image_id", suffixes=("_cpu", "_gpu"))
@@ -160,6 +163,7 @@ def paper_beside_default(table: pd.DataFrame) -> str:
     fitted = fitted[fitted["variant"] == "cuda_ad_rgb"]
     paper = fitted[fitted["preset"] == "paper"]
     default = fitted[(fitted["preset"] == "default") & (fitted["mode"] == "sheet")]
+    default = default[default["jobs"] == default["jobs"].min()]
     both = paper[["image_id", "mode", *figures]].merge(default[["image_id", *figures]], on="image_id", suffixes=(" paper", " default"))
     if both.empty:
         return ""
@@ -203,11 +207,16 @@ def main() -> int:
     parser.add_argument("--budget-s", type=float, default=3600.0, help="stop the whole-sheet run after this many seconds")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench" / "gpu")
     parser.add_argument("--cpu-run", type=Path, default=ROOT / "results", help="a default-preset CPU run to compare with")
-    parser.add_argument("--report", action="store_true", help="only rewrite <out>/gpu_presets.md from <out>/gpu_presets.csv")
+    parser.add_argument("--report", action="store_true",
+                        help="only rewrite <out>/gpu_presets.md from <out>/gpu_presets.csv (or, where there is none, "
+                             "from the gpu_presets.csv of its folders together: runs with other --jobs)")
     args = parser.parse_args()
     out = args.out.resolve()
     if args.report:
-        table = pd.read_csv(out / "gpu_presets.csv")
+        tables = [out / "gpu_presets.csv"] if (out / "gpu_presets.csv").is_file() else sorted(out.glob("*/gpu_presets.csv"))
+        if not tables:
+            parser.error(f"--report: no {shown(out / 'gpu_presets.csv')} and no gpu_presets.csv in its folders")
+        table = pd.concat([pd.read_csv(path) for path in tables], ignore_index=True)
         publish(out, "gpu_presets", table, markdown(table, args.cpu_run / "reports" / "fit_accuracy.csv"))
         return 0
     if args.preset is None:

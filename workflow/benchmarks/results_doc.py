@@ -393,10 +393,18 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "results/exp_lean/holdout results/holdout_confirm/run results/exp_seed/confirm results/exp_lean/confirm "
                         "results/weaves_confirm/run results/exp_seed/weaves results/exp_lean/weaves"),
         BenchmarkReport("Where a fit job's seconds go", ("bench/job_costs.md",), f"{py}/job_costs.py"),
+        BenchmarkReport("Whole sheet on a CUDA GPU with more jobs side by side", ("bench/gpu_jobs/gpu_presets.md",),
+                        f"{py}/gpu_presets.py --preset default --alone 0 --jobs J --budget-s 130 --out results/bench/gpu_jobs/jJ "
+                        "for J in 16, 24 and 32, one after the other on one GPU machine after a one-image warm-up run "
+                        f"(--alone 1 --jobs 0), then here {py}/gpu_presets.py --report --out results/bench/gpu_jobs"),
         BenchmarkReport("The normal-map step: backward pass and freezing", ("bench/backward_pass.md",),
                         f"{py}/backward_pass.py"),
         BenchmarkReport("The normal-map step on a CUDA GPU: backward pass and freezing", ("bench/backward_pass_cuda.md",),
                         f"{py}/backward_pass.py --variant cuda_ad_rgb --name backward_pass_cuda"),
+        BenchmarkReport("The normal-map step on a CUDA GPU, normal map without the hardware texture",
+                        ("bench/backward_pass_cuda_noaccel.md",),
+                        f"{py}/backward_pass.py --variant cuda_ad_rgb --ways direct 'direct, frozen' --no-texture-accel "
+                        "--name backward_pass_cuda_noaccel"),
         BenchmarkReport("A rerun from scratch against the run", ("bench/rerun_identity.md",), f"{py}/rerun_identity.py"),
         BenchmarkReport("Scaling with cores and resolution", ("bench/scaling/scaling.md",), f"{py}/scaling.py"),
         BenchmarkReport("The `paper` preset's projected time", ("reports/paper_projection.md",), f"{py}/paper_projection.py"),
