@@ -347,6 +347,15 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/record_ensemble.md",),
                         f"{py}/record_candidates.py results results/weaves/run results/confirm_1126/run "
                         "results/weaves_confirm/run results/weaves_fresh/run --ensemble 1 2 3 5 --name record_ensemble"),
+        BenchmarkReport("Classifier of record: the inner criterion that chooses each fold's set, screening",
+                        ("bench/record_criteria_screening.md",),
+                        f"{py}/record_candidates.py results results/weaves/run --criterion accuracy logloss tiebreak "
+                        "repeated --name record_criteria_screening"),
+        BenchmarkReport("Classifier of record: the inner criterion that chooses each fold's set, confirmation",
+                        ("bench/record_criteria_confirmation.md",),
+                        f"{py}/record_candidates.py results/confirm_1126/run results/weaves_confirm/run "
+                        "results/weaves_fresh/run results/weaves_period/run --criterion accuracy tiebreak "
+                        "--name record_criteria_confirmation"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
