@@ -347,6 +347,9 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/record_ensemble.md",),
                         f"{py}/record_candidates.py results results/weaves/run results/confirm_1126/run "
                         "results/weaves_confirm/run results/weaves_fresh/run --ensemble 1 2 3 5 --name record_ensemble"),
+        BenchmarkReport("Other classifiers beside QDA", ("bench/classifiers_beside.md",),
+                        f"{py}/classifiers_beside.py results results/confirm_1126/run results/weaves/run "
+                        "results/weaves_confirm/run results/weaves_fresh/run results/weaves_period/run"),
         BenchmarkReport("Classifier of record: the inner criterion that chooses each fold's set, screening",
                         ("bench/record_criteria_screening.md",),
                         f"{py}/record_candidates.py results results/weaves/run --criterion accuracy logloss tiebreak "
