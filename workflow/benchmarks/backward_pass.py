@@ -54,7 +54,6 @@ def stage_scene(mi: Any, run: Path, image: str, resolution: int, texture: int, s
     ``texture_accel=False`` builds the normal map as a bitmap without CUDA's hardware texture
     (Mitsuba's ``accel`` parameter), whose update a ``dr.freeze`` recording cannot follow.
     """
-    from clothscope.fit import model
     from clothscope.fit.effects import geometry_evidence, plan_stage
     from clothscope.fit.model import build_scene, flat_normal_texture
     from clothscope.fit.outputs import load_state
@@ -64,15 +63,8 @@ def stage_scene(mi: Any, run: Path, image: str, resolution: int, texture: int, s
     plan = plan_stage("normals", geometry_evidence(fit.grid, fit.camera, fit.light))
     if plan.integrator != "direct_unshadowed":
         raise ValueError(f"{image}: the normal-map stage plans {plan.integrator}, not direct_unshadowed")
-    bsdf_dict = model.cloth_bsdf_dict
-    if not texture_accel:
-        def bsdf_without_accel(*args: Any, **kwargs: Any) -> dict[str, Any]:
-            return {**(d := bsdf_dict(*args, **kwargs)), "normalmap": {**d["normalmap"], "accel": False}}
-        model.cloth_bsdf_dict = bsdf_without_accel
-    try:
-        scene = build_scene(mi, fit, resolution, plan.integrator_dict(), sampler, normal_texture=flat_normal_texture(texture))
-    finally:
-        model.cloth_bsdf_dict = bsdf_dict
+    scene = build_scene(mi, fit, resolution, plan.integrator_dict(), sampler, normal_texture=flat_normal_texture(texture),
+                        normal_accel=texture_accel)
     return scene, at_resolution(load_prepared(run / "prepared" / image), resolution)
 
 

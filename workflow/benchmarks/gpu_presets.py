@@ -139,10 +139,14 @@ def summary(table: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def fewest_jobs(rows: pd.DataFrame) -> pd.DataFrame:
+    """The rows of the run with the fewest jobs side by side (one sheet run where several job counts were run)."""
+    return rows[rows["jobs"] == rows["jobs"].min()]
+
+
 def against_cpu(table: pd.DataFrame, cpu_report: Path) -> str:
     """The default preset's whole-sheet fit on the GPU against a CPU run's ``fit_accuracy.csv`` of the same images."""
-    gpu = table[(table["preset"] == "default") & (table["mode"] == "sheet") & (table["variant"] == "cuda_ad_rgb")]
-    gpu = gpu[gpu["jobs"] == gpu["jobs"].min()]  # one sheet run where several job counts were run
+    gpu = fewest_jobs(table[(table["preset"] == "default") & (table["mode"] == "sheet") & (table["variant"] == "cuda_ad_rgb")])
     if not cpu_report.is_file() or gpu.empty or "psnr_db" not in gpu:
         return ""
     both = pd.read_csv(cpu_report).merge(gpu, on="image_id", suffixes=("_cpu", "_gpu"))
@@ -162,8 +166,7 @@ def paper_beside_default(table: pd.DataFrame) -> str:
     fitted = table[table["status"] == "fitted"] if "status" in table else table.iloc[:0]
     fitted = fitted[fitted["variant"] == "cuda_ad_rgb"]
     paper = fitted[fitted["preset"] == "paper"]
-    default = fitted[(fitted["preset"] == "default") & (fitted["mode"] == "sheet")]
-    default = default[default["jobs"] == default["jobs"].min()]
+    default = fewest_jobs(fitted[(fitted["preset"] == "default") & (fitted["mode"] == "sheet")])
     both = paper[["image_id", "mode", *figures]].merge(default[["image_id", *figures]], on="image_id", suffixes=(" paper", " default"))
     if both.empty:
         return ""

@@ -59,6 +59,13 @@ def run_rows(run: Path) -> list[dict]:
     return rows
 
 
+def held_out_posterior(training: pd.DataFrame, columns: list[str], held_out: pd.DataFrame, classes: list[str],
+                       settings: dict, tiles: pd.DataFrame | None) -> np.ndarray:
+    """The posterior over ``classes`` of the one ``held_out`` row, by the record's model trained on ``training``."""
+    model = train_model(training, columns, settings["reg"], settings["subspace"], tiles)
+    return predict(model, held_out)[[posterior_column(c) for c in classes]].to_numpy(float)[0]
+
+
 def ensemble_rows(run: Path, sizes: list[int]) -> list[dict]:
     """LOOCV of the posterior average of the best ``k`` default candidates (by each fold's inner CV), per ``k``."""
     ok, tiles, candidates = record_inputs(*run_tables(run), "auto")
@@ -71,8 +78,7 @@ def ensemble_rows(run: Path, sizes: list[int]) -> list[dict]:
         rows = labelled.drop(index=i)
         scores = choose_columns(rows, candidates, settings["reg"], settings["subspace"], tiles)[1]
         ranked = sorted(scores, key=lambda name: (-scores[name], list(candidates).index(name)))[:max(sizes)]
-        members = [predict(train_model(rows, candidates[name], settings["reg"], settings["subspace"], tiles),
-                           labelled.iloc[[i]])[[posterior_column(c) for c in classes]].to_numpy(float)[0]
+        members = [held_out_posterior(rows, candidates[name], labelled.iloc[[i]], classes, settings, tiles)
                    for name in ranked]
         for k in sizes:
             correct[k] += int(classes[int(np.mean(members[:k], axis=0).argmax())] == truth[i])
@@ -97,9 +103,10 @@ def inner_score(rows: pd.DataFrame, columns: list[str], criterion: str, settings
         model = fit_qda(settings["reg"], *with_tiles(X[train], y[train], ids[train], tiles, used), notes,
                         settings["subspace"])
         correct += int((model.predict(X[test]) == y[test]).sum())
-        truth_column = [list(model.classes_).index(c) for c in y[test]]
-        posterior = model.predict_proba(X[test])[np.arange(len(test)), truth_column]
-        log_posterior += float(np.log(np.maximum(posterior, 1e-6)).sum())
+        if criterion in ("logloss", "tiebreak"):
+            truth_column = [list(model.classes_).index(c) for c in y[test]]
+            posterior = model.predict_proba(X[test])[np.arange(len(test)), truth_column]
+            log_posterior += float(np.log(np.maximum(posterior, 1e-6)).sum())
         scored += len(test)
     accuracy, logloss = correct / scored, log_posterior / scored
     return {"accuracy": accuracy, "repeated": accuracy, "logloss": logloss, "tiebreak": (accuracy, logloss)}[criterion]
@@ -111,7 +118,7 @@ def criterion_rows(run: Path, criteria: list[str]) -> list[dict]:
     settings = classify_config()
     labelled = split_labelled(ok)[0].reset_index(drop=True)
     truth = labelled["fabric_class"].astype(str).to_numpy()
-    order = list(candidates)
+    classes, order = sorted(set(truth)), list(candidates)
     rows = []
     for criterion in criteria:
         correct, chosen = 0, {}
@@ -125,10 +132,8 @@ def criterion_rows(run: Path, criteria: list[str]) -> list[dict]:
                     continue
             name = max(scores, key=lambda n: (scores[n], -order.index(n)))
             chosen[name] = chosen.get(name, 0) + 1
-            model = train_model(training, candidates[name], settings["reg"], settings["subspace"], tiles)
-            posterior = predict(model, labelled.iloc[[i]])
-            classes = sorted(set(truth))
-            correct += int(classes[int(posterior[[posterior_column(c) for c in classes]].to_numpy(float)[0].argmax())] == truth[i])
+            posterior = held_out_posterior(training, candidates[name], labelled.iloc[[i]], classes, settings, tiles)
+            correct += int(classes[int(posterior.argmax())] == truth[i])
         rows.append({"run": shown(run), "candidates": f"inner criterion: {criterion}"
                      + (" (the classifier of record)" if criterion == "accuracy" else ""),
                      "correct": correct, "images": len(labelled), "accuracy": correct / len(labelled),

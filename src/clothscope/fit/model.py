@@ -156,8 +156,11 @@ def shaded_texture(material: Material, shade: np.ndarray, layout: np.ndarray | N
 
 
 def cloth_bsdf_dict(mi: ModuleType, material: Material, normal_texture: np.ndarray,
-                    albedo_texture: np.ndarray | None = None) -> dict[str, Any]:
-    """Principled BSDF wrapped in a normal map (raw bilinear texture); ``albedo_texture``: a (T, T, 3) base-colour texture."""
+                    albedo_texture: np.ndarray | None = None, normal_accel: bool = True) -> dict[str, Any]:
+    """Principled BSDF wrapped in a normal map (raw bilinear texture); ``albedo_texture``: a (T, T, 3) base-colour texture.
+
+    ``normal_accel=False`` keeps the normal map out of CUDA's hardware texture (Mitsuba's bitmap ``accel``).
+    """
     color: dict[str, Any] = {"type": "rgb", "value": [float(c) for c in material.base_color]}
     if albedo_texture is not None:
         color = {"type": "bitmap", "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp",
@@ -165,7 +168,7 @@ def cloth_bsdf_dict(mi: ModuleType, material: Material, normal_texture: np.ndarr
     return {
         "type": "normalmap",
         "normalmap": {"type": "bitmap", "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp",
-                      "data": mi.TensorXf(np.ascontiguousarray(normal_texture, dtype=np.float32))},
+                      "accel": normal_accel, "data": mi.TensorXf(np.ascontiguousarray(normal_texture, dtype=np.float32))},
         "bsdf": {
             "type": "principled",
             "base_color": color,
@@ -177,12 +180,13 @@ def cloth_bsdf_dict(mi: ModuleType, material: Material, normal_texture: np.ndarr
 
 def build_scene(mi: ModuleType, fit: FitScene, resolution: int, integrator: dict[str, Any], sampler: str,
                 normal_texture: np.ndarray | None = None, sample_border: bool = False,
-                albedo_texture: np.ndarray | None = None) -> Any:
-    """Load the Mitsuba scene of a fit at ``resolution`` px with the given integrator and sampler (and a base-colour texture)."""
+                albedo_texture: np.ndarray | None = None, normal_accel: bool = True) -> Any:
+    """Load the Mitsuba scene of a fit at ``resolution`` px with the given integrator and sampler (and a base-colour texture;
+    ``normal_accel``: :func:`cloth_bsdf_dict`)."""
     if integrator["type"] == UNSHADOWED:
         register_unshadowed(mi)
     texture = flat_normal_texture(8) if normal_texture is None else normal_texture
-    bsdf = mi.load_dict(cloth_bsdf_dict(mi, fit.material, texture, albedo_texture))
+    bsdf = mi.load_dict(cloth_bsdf_dict(mi, fit.material, texture, albedo_texture, normal_accel))
     n = fit.grid.shape[0]
     mesh = cloth_mesh(mi, fit.grid, grid_texcoords(n), np.ones((n, n), dtype=bool), bsdf)
     return mi.load_dict({
