@@ -293,6 +293,29 @@ def test_photo_loader_reads_luminance_and_skips_rejected_photos(tmp_path):
     assert broken.status == "failed" and "status.json" in broken.reason
 
 
+def test_photo_shading_field_divides_out_the_dyes_and_keeps_luminance_for_algorithm_2(tmp_path):
+    from clothscope.core.imageio import write_exr
+    from clothscope.features.sources import load_photo
+    from clothscope.prepare.image import IMAGE_FILE, STATUS_FILE
+
+    rows, cols = np.mgrid[0:64, 0:64]
+    relief = 1.0 + 0.2 * np.sin(2 * np.pi * cols / 8.0)  # threads every 8 px
+    red, blue = np.array([0.6, 0.1, 0.1]), np.array([0.1, 0.1, 0.6])
+    dye = np.where(((rows // 16) % 2 == 0)[..., None], red, blue)  # stripes 16 px wide across the threads
+    folder = tmp_path / "striped"
+    folder.mkdir()
+    write_exr(folder / IMAGE_FILE, (dye * relief[..., None]).astype(np.float32))
+    (folder / STATUS_FILE).write_text(json.dumps({"status": "accepted"}))
+    luminance, shading = load_photo(folder), load_photo(folder, "shading")
+    assert shading.status == "ok" and np.isfinite(shading.field).all()
+    np.testing.assert_allclose(shading.normals, luminance.normals)  # Algorithm 2 reads the luminance either way
+    stripe_step = lambda f: abs(f[rows // 16 % 2 == 0].mean() / f[rows // 16 % 2 == 1].mean() - 1)  # noqa: E731
+    assert stripe_step(luminance.field) > 0.5 and stripe_step(shading.field) < 0.01
+    np.testing.assert_allclose(shading.field / shading.field.mean(), relief / relief.mean(), atol=1e-3)
+    with pytest.raises(ValueError, match="photo field must be one of luminance, shading"):
+        load_photo(folder, "albedo")
+
+
 def test_physics_job_refuses_records_and_outputs_that_name_other_images(tmp_path):
     from clothscope.physics.job import physics_job
 

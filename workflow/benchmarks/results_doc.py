@@ -374,6 +374,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/pooled_weaves_fresh.md",),
                         f"{py}/pooled_sets.py --design results/weaves_fresh/run --holdout results/weaves_period/run "
                         "--name pooled_weaves_fresh"),
+        BenchmarkReport("Feature sets by capture, the four three-weave sets pooled", ("bench/pooled_captures.md",),
+                        f"{py}/pooled_captures.py"),
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
         BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),

@@ -1,4 +1,4 @@
-"""Where a feature row's maps come from: the ground truth, a fit's output folder (relief or lit shading), or the prepared photo's luminance."""
+"""Where a feature row's maps come from: the ground truth, a fit's output folder (relief or lit shading), or the prepared photo (luminance or shading)."""
 from __future__ import annotations
 
 import json
@@ -15,6 +15,7 @@ from clothscope.core.imageio import read_exr, read_png
 from clothscope.core.truth import decode_normal, truth_paths
 from clothscope.fit.outputs import HEIGHT_FILE, NORMAL_FILE, SHADE_FILE, STATE_FILE
 from clothscope.prepare.image import IMAGE_FILE, STATUS_FILE
+from clothscope.prepare.shading import shading
 
 #: Where the maps come from: synthetic ground truth, the inverse renderer, or the photo alone.
 NORMAL_SOURCES = ("truth", "fitted", "photo")
@@ -22,6 +23,8 @@ NORMAL_SOURCES = ("truth", "fitted", "photo")
 
 #: What the structure descriptor reads on fitted maps (``features.fitted_field``): the height map, or the normal map lit by the fitted light.
 FITTED_FIELDS = ("relief", "shading")
+#: What the structure descriptor reads on the photo (``features.photo_field``): its luminance, or its shading with the dye colours divided out.
+PHOTO_FIELDS = ("luminance", "shading")
 
 
 #: Status of a usable row.
@@ -140,8 +143,14 @@ def load_fitted(normals_dir: str | os.PathLike[str], field: str) -> NormalInput:
         return unusable_input("failed", f"{folder}: {type(err).__name__}: {err}", variant)
 
 
-def load_photo(prepared_dir: str | os.PathLike[str]) -> NormalInput:
-    """The prepared photo's linear luminance (Rec. 709 weights), for the ``photo`` source; no BSDF."""
+def load_photo(prepared_dir: str | os.PathLike[str], field: str = "luminance") -> NormalInput:
+    """The prepared photo's linear luminance (Rec. 709 weights), for the ``photo`` source; no BSDF.
+
+    Algorithm 2 reads the luminance; the structure and LBP descriptors read ``field``: the luminance,
+    or the ``shading`` with the dye colours divided out (:func:`clothscope.prepare.shading.shading`).
+    """
+    if field not in PHOTO_FIELDS:
+        raise ValueError(f"photo field must be one of {', '.join(PHOTO_FIELDS)}, got {field!r}")
     folder = Path(prepared_dir)
     status = _read_record(folder / STATUS_FILE, "photo")
     if isinstance(status, NormalInput):
@@ -149,22 +158,27 @@ def load_photo(prepared_dir: str | os.PathLike[str]) -> NormalInput:
     if status.get("status") != "accepted":
         return unusable_input("skipped", f"photo rejected: {status.get('reason') or status.get('status')}", "photo")
     try:
-        luminance = photo_luminance(_read_three_channels(folder / IMAGE_FILE).astype(np.float64))
-        if not np.all(np.isfinite(luminance)):
+        rgb = _read_three_channels(folder / IMAGE_FILE).astype(np.float64)
+        if not np.all(np.isfinite(rgb)):
             raise ValueError("image.exr holds non-finite values")
-        return NormalInput(luminance, luminance, 0.0, 0.0, STATUS_OK, "", "photo", 1.0)
+        luminance = photo_luminance(rgb)
+        described = shading(rgb) if field == "shading" else luminance
+        return NormalInput(luminance, described, 0.0, 0.0, STATUS_OK, "", "photo", 1.0)
     except (OSError, RuntimeError, ValueError) as err:
         return unusable_input("failed", f"{folder}: {type(err).__name__}: {err}", "photo")
 
 
 def load_normal_input(source: str, image_path: str | os.PathLike[str], source_dir: str | os.PathLike[str] | None,
-                      fitted_field: str | None) -> NormalInput:
+                      fitted_field: str | None, photo_field: str | None = None) -> NormalInput:
     """:func:`load_truth`, :func:`load_fitted` (``source_dir``: fit_normals folder; ``fitted_field``: what its
-    descriptor reads) or :func:`load_photo` (``source_dir``: prepared folder), by ``source``."""
+    descriptor reads) or :func:`load_photo` (``source_dir``: prepared folder; ``photo_field``: what its
+    descriptor reads), by ``source``."""
     if source == "truth":
         return load_truth(image_path)
     if source in ("fitted", "photo"):
         if source_dir is None:
             raise ValueError(f"the {source} source needs its input folder")
-        return load_fitted(source_dir, fitted_field) if source == "fitted" else load_photo(source_dir)
+        if source == "fitted":
+            return load_fitted(source_dir, fitted_field)
+        return load_photo(source_dir, photo_field or "luminance")
     raise ValueError(f"normal source must be one of {', '.join(NORMAL_SOURCES)}, got {source!r}")

@@ -139,9 +139,13 @@ def structure_settings(features_config: dict[str, Any]) -> StructureSettings:
 def row_settings(features_config: dict[str, Any], source: str | None = None) -> dict[str, Any]:
     """The part of a ``features:`` section that changes a row of ``source`` (of any source when None).
 
-    Everything but ``normal_source``; ``fitted_field`` only for the ``fitted`` source.
+    Everything but ``normal_source``; ``fitted_field`` only for the ``fitted`` source, ``photo_field`` only for ``photo``.
     """
-    skipped = {"normal_source"} if source in (None, "fitted") else {"normal_source", "fitted_field"}
+    skipped = {"normal_source"}
+    if source not in (None, "fitted"):
+        skipped.add("fitted_field")
+    if source not in (None, "photo"):
+        skipped.add("photo_field")
     return {k: v for k, v in sorted(features_config.items()) if k not in skipped}
 
 
@@ -340,7 +344,8 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
     structure = structure_settings(features_config)
     extras = bool(features_config["extras"])
     schema = feature_schema(settings.n_peaks, extras)
-    loaded = load_normal_input(source, image_path, source_dir, features_config.get("fitted_field"))
+    loaded = load_normal_input(source, image_path, source_dir, features_config.get("fitted_field"),
+                               features_config.get("photo_field"))
     provenance = {"normal_source": source, "mitsuba_variant": loaded.mitsuba_variant or "unknown",
                   "config_hash": config_hash(features_config, source), "texels_per_pixel": loaded.texels_per_pixel}
     title = f"{image_id} ({fabric_class or 'query'}, {source} {'luminance' if source == 'photo' else 'normals'})"
