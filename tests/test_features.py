@@ -282,14 +282,14 @@ def test_photo_loader_reads_luminance_and_skips_rejected_photos(tmp_path):
     from clothscope.prepare.image import prepare_image
 
     prepare_image("a", SYNTHETIC / "canvas" / "canvas_red.png", tmp_path / "a", config_settings("prepare", working_resolution=64, scale="frame"))
-    photo = load_photo(tmp_path / "a")
+    photo = load_photo(tmp_path / "a", "luminance")
     assert photo.status == "ok" and photo.field.shape == (64, 64) and photo.field is photo.normals
     assert photo.roughness == 0.0 and np.isfinite(photo.field).all() and photo.field.max() > 0
     (tmp_path / "b").mkdir()
     (tmp_path / "b" / "status.json").write_text(json.dumps({"status": "rejected", "reason": "too small"}))
-    rejected = load_photo(tmp_path / "b")
+    rejected = load_photo(tmp_path / "b", "luminance")
     assert rejected.status == "skipped" and "too small" in rejected.reason and rejected.field is None
-    broken = load_photo(tmp_path / "missing")
+    broken = load_photo(tmp_path / "missing", "luminance")
     assert broken.status == "failed" and "status.json" in broken.reason
 
 
@@ -306,7 +306,7 @@ def test_photo_shading_field_divides_out_the_dyes_and_keeps_luminance_for_algori
     folder.mkdir()
     write_exr(folder / IMAGE_FILE, (dye * relief[..., None]).astype(np.float32))
     (folder / STATUS_FILE).write_text(json.dumps({"status": "accepted"}))
-    luminance, shading = load_photo(folder), load_photo(folder, "shading")
+    luminance, shading = load_photo(folder, "luminance"), load_photo(folder, "shading")
     assert shading.status == "ok" and np.isfinite(shading.field).all()
     np.testing.assert_allclose(shading.normals, luminance.normals)  # Algorithm 2 reads the luminance either way
     stripe_step = lambda f: abs(f[rows // 16 % 2 == 0].mean() / f[rows // 16 % 2 == 1].mean() - 1)  # noqa: E731

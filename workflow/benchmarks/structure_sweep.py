@@ -38,8 +38,10 @@ SETS = ("structure_fitted", "structure_brdf_fitted", "structure_photo", "fitted_
 def load_fields(results: Path) -> dict[str, dict[str, object]]:
     """Each source's table and every usable image's field, from one results folder."""
     out = {}
-    fitted = partial(load_fitted, field=validated_config()["features"]["fitted_field"])
-    for source, loader, folder in (("fitted", fitted, "fit/{}/normals"), ("photo", load_photo, "prepared/{}")):
+    features = validated_config()["features"]
+    fitted = partial(load_fitted, field=features["fitted_field"])
+    photo = partial(load_photo, field=features["photo_field"])
+    for source, loader, folder in (("fitted", fitted, "fit/{}/normals"), ("photo", photo, "prepared/{}")):
         table = pd.read_parquet(results / "features" / source / "table.parquet")
         fields = {}
         for image in table.loc[table["status"] == "ok", "image_id"]:

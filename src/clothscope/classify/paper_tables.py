@@ -295,7 +295,8 @@ def load_maps(table_path: str | os.PathLike[str], source: str, images: dict[str,
     loaded = {}
     for image_id in wanted["image_id"].astype(str):
         entry = images[image_id]
-        loaded[image_id] = load_normal_input(source, entry["path"], entry.get("fit_dir"), "relief")  # Algorithm 2 reads the normals only
+        # Algorithm 2 reads the normals (the photo's luminance) only, so the descriptors' fields do not matter here
+        loaded[image_id] = load_normal_input(source, entry["path"], entry.get("fit_dir"), "relief", "luminance")
     return usable_maps(table, loaded)
 
 

@@ -143,7 +143,7 @@ def load_fitted(normals_dir: str | os.PathLike[str], field: str) -> NormalInput:
         return unusable_input("failed", f"{folder}: {type(err).__name__}: {err}", variant)
 
 
-def load_photo(prepared_dir: str | os.PathLike[str], field: str = "luminance") -> NormalInput:
+def load_photo(prepared_dir: str | os.PathLike[str], field: str) -> NormalInput:
     """The prepared photo's linear luminance (Rec. 709 weights), for the ``photo`` source; no BSDF.
 
     Algorithm 2 reads the luminance; the structure and LBP descriptors read ``field``: the luminance,
@@ -169,7 +169,7 @@ def load_photo(prepared_dir: str | os.PathLike[str], field: str = "luminance") -
 
 
 def load_normal_input(source: str, image_path: str | os.PathLike[str], source_dir: str | os.PathLike[str] | None,
-                      fitted_field: str | None, photo_field: str | None = None) -> NormalInput:
+                      fitted_field: str | None, photo_field: str | None) -> NormalInput:
     """:func:`load_truth`, :func:`load_fitted` (``source_dir``: fit_normals folder; ``fitted_field``: what its
     descriptor reads) or :func:`load_photo` (``source_dir``: prepared folder; ``photo_field``: what its
     descriptor reads), by ``source``."""
@@ -180,5 +180,7 @@ def load_normal_input(source: str, image_path: str | os.PathLike[str], source_di
             raise ValueError(f"the {source} source needs its input folder")
         if source == "fitted":
             return load_fitted(source_dir, fitted_field)
-        return load_photo(source_dir, photo_field or "luminance")
+        if photo_field is None:
+            raise ValueError("the photo source needs its photo field (features.photo_field)")
+        return load_photo(source_dir, photo_field)
     raise ValueError(f"normal source must be one of {', '.join(NORMAL_SOURCES)}, got {source!r}")
