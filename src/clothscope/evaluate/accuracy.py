@@ -278,8 +278,10 @@ def summarise(table: Any) -> str:
             lines.append(f"| period within 5% of the nominal z = 0 period | fraction of {len(periodic)} periodic | {nominal:.3f} | (for reference) | |")
     lines += ["", "## Medians per class", "", fitted.groupby("fabric_class")[
         ["psnr_db", "fold_normal_error_deg", "flat_fold_normal_error_deg", "tilt_error_deg",
-         "flat_tilt_error_deg", "roughness_error", "base_color_error", "period_error", "total_s"]
-    ].median().round(3).to_markdown() if len(fitted) else "(none)", ""]
+         "flat_tilt_error_deg", "roughness", "roughness_true", "roughness_error", "base_color_error", "period_error", "total_s"]
+    ].median().round(3).to_markdown() if len(fitted) else "(none)", "",
+              "`roughness` is the fitted roughness and `roughness_true` the generator's; where two classes' fitted "
+              "values meet although their true ones do not, the fitted BRDF cannot tell them apart.", ""]
     if "period_seen_scale" in fitted and len(periodic):
         lo, hi = float(periodic["period_seen_scale"].min()), float(periodic["period_seen_scale"].max())
         lines += ["The period is compared with the true period as seen in the photo: the nominal `thread_period_px` "
