@@ -344,8 +344,8 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
     structure = structure_settings(features_config)
     extras = bool(features_config["extras"])
     schema = feature_schema(settings.n_peaks, extras)
-    loaded = load_normal_input(source, image_path, source_dir, features_config["fitted_field"],
-                               features_config["photo_field"])
+    loaded = load_normal_input(source, image_path, source_dir, features_config.get("fitted_field"),
+                               features_config.get("photo_field"))  # a row's settings hold only its own source's field
     provenance = {"normal_source": source, "mitsuba_variant": loaded.mitsuba_variant or "unknown",
                   "config_hash": config_hash(features_config, source), "texels_per_pixel": loaded.texels_per_pixel}
     title = f"{image_id} ({fabric_class or 'query'}, {source} {'luminance' if source == 'photo' else 'normals'})"
