@@ -144,10 +144,11 @@ def load_fitted(normals_dir: str | os.PathLike[str], field: str) -> NormalInput:
 
 
 def load_photo(prepared_dir: str | os.PathLike[str], field: str) -> NormalInput:
-    """The prepared photo's linear luminance (Rec. 709 weights), for the ``photo`` source; no BSDF.
+    """The prepared photo's maps for the ``photo`` source (no BSDF).
 
-    Algorithm 2 reads the luminance; the structure and LBP descriptors read ``field``: the luminance,
-    or the ``shading`` with the dye colours divided out (:func:`clothscope.prepare.shading.shading`).
+    Algorithm 2 reads the linear luminance (Rec. 709 weights); the structure and LBP descriptors read
+    ``field``: the luminance, or the ``shading`` with the dye colours divided out
+    (:func:`clothscope.prepare.shading.shading`).
     """
     if field not in PHOTO_FIELDS:
         raise ValueError(f"photo field must be one of {', '.join(PHOTO_FIELDS)}, got {field!r}")

@@ -348,7 +348,7 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
                                features_config.get("photo_field"))  # a row's settings hold only its own source's field
     provenance = {"normal_source": source, "mitsuba_variant": loaded.mitsuba_variant or "unknown",
                   "config_hash": config_hash(features_config, source), "texels_per_pixel": loaded.texels_per_pixel}
-    title = f"{image_id} ({fabric_class or 'query'}, {source} {'luminance' if source == 'photo' else 'normals'})"
+    title = f"{image_id} ({fabric_class or 'query'}, {source} {features_config['photo_field'] if source == 'photo' else 'normals'})"
     row, result, tiles = None, None, []
     if loaded.status == STATUS_OK:
         try:
