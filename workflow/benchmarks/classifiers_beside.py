@@ -13,13 +13,12 @@ per run, set and classifier.
 """
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from class_subsets import classify_config
-from harness import ROOT, publish, run_tables, shown
+from harness import run_tables, runs_report, shown
 from sklearn.base import ClassifierMixin
 from sklearn.discriminant_analysis import LinearDiscriminantAnalysis
 from sklearn.linear_model import LogisticRegression
@@ -74,14 +73,8 @@ def markdown(table: pd.DataFrame) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("runs", nargs="+", help="run folders (each with features/<source>/table.parquet)")
-    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
-    parser.add_argument("--name", default="classifiers_beside")
-    args = parser.parse_args()
     settings = classify_config()
-    table = pd.DataFrame([row for run in args.runs for row in run_rows(ROOT / run, settings)])
-    publish(args.out, args.name, table, markdown(table))
+    runs_report(__doc__, "classifiers_beside", "run folders (each with features/<source>/table.parquet)", lambda run: run_rows(run, settings), markdown)
 
 
 if __name__ == "__main__":

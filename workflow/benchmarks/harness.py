@@ -4,11 +4,13 @@ Imported by the scripts beside it (``from harness import ...``); not a benchmark
 """
 from __future__ import annotations
 
+import argparse
 import os
 import shutil
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
@@ -83,6 +85,19 @@ def publish(folder: Path, name: str, table: pd.DataFrame, text: str, float_forma
     write_text(folder / f"{name}.csv", table.to_csv(index=False, float_format=float_format))
     write_text(folder / f"{name}.md", text)
     print(text)
+
+
+def runs_report(doc: str, name: str, runs_help: str, rows_of_run: Callable[[Path], list[dict]],
+                markdown: Callable[[pd.DataFrame], str]) -> None:
+    """The command line ``RUN [RUN ...] [--out DIR] [--name NAME]`` of a per-run benchmark: ``rows_of_run`` of every
+    run (a path under the repository root) in one table, published with its ``markdown`` (:func:`publish`)."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("runs", nargs="+", help=runs_help)
+    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
+    parser.add_argument("--name", default=name)
+    args = parser.parse_args()
+    table = pd.DataFrame([row for run in args.runs for row in rows_of_run(ROOT / run)])
+    publish(args.out, args.name, table, markdown(table))
 
 
 def seed_prepared(results: Path, image: str | None = None) -> None:

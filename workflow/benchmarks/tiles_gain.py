@@ -11,12 +11,11 @@ The tile tables must be there (``features.tiles.grid`` > 0 when the run was made
 """
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import pandas as pd
 from class_subsets import classify_config
-from harness import ROOT, publish, record_inputs, run_tables, shown
+from harness import record_inputs, run_tables, runs_report, shown
 
 from clothscope.classify.feature_sets import compare_feature_sets
 from clothscope.classify.loocv import loocv
@@ -60,14 +59,8 @@ def markdown(table: pd.DataFrame) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("runs", nargs="+", help="run folders (each with features/<source>/table.parquet and tiles/)")
-    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
-    parser.add_argument("--name", default="tiles_gain")
-    args = parser.parse_args()
     settings = classify_config()
-    table = pd.DataFrame([row for run in args.runs for row in run_rows(ROOT / run, settings)])
-    publish(args.out, args.name, table, markdown(table))
+    runs_report(__doc__, "tiles_gain", "run folders (each with features/<source>/table.parquet and tiles/)", lambda run: run_rows(run, settings), markdown)
 
 
 if __name__ == "__main__":
