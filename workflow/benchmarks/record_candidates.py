@@ -28,19 +28,18 @@ repeats of the split). Measured against a rule written before scoring and reject
 from __future__ import annotations
 
 import argparse
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from class_subsets import classify_config
 from harness import ROOT, publish, record_inputs, run_tables, shown
-from sklearn.model_selection import RepeatedStratifiedKFold, StratifiedKFold
 
 from clothscope.classify.feature_sets import PHOTO_GROUPS
-from clothscope.classify.loocv import INNER_FOLDS, choose_columns, loocv
+from clothscope.classify.loocv import choose_columns, inner_folds, loocv
 from clothscope.classify.model import predict, train_model
-from clothscope.classify.qda import fit_qda
-from clothscope.classify.rows import MIN_LOOCV_PER_CLASS, labelled_data, posterior_column, split_labelled, with_tiles
+from clothscope.classify.rows import posterior_column, split_labelled
 
 LISTS = ("without the photo's own sets", "with them (default)")
 
@@ -90,24 +89,18 @@ def ensemble_rows(run: Path, sizes: list[int]) -> list[dict]:
 CRITERIA = ("accuracy", "logloss", "tiebreak", "repeated")
 
 
-def inner_score(rows: pd.DataFrame, columns: list[str], criterion: str, settings: dict,
-                tiles: pd.DataFrame | None) -> float | tuple[float, float]:
-    """The inner cross-validation score of one column set on a fold's training ``rows`` (higher is better)."""
-    labelled, _, notes, used, _, X, y = labelled_data(rows, columns, MIN_LOOCV_PER_CLASS, "choosing a feature set")
-    ids = labelled["image_id"].astype(str).to_numpy()
-    k = min(INNER_FOLDS, int(pd.Series(y).value_counts().min()))
-    splitter = (RepeatedStratifiedKFold(n_splits=k, n_repeats=3, random_state=0) if criterion == "repeated"
-                else StratifiedKFold(n_splits=k, shuffle=True, random_state=0))
+def inner_score(rows: pd.DataFrame, columns: list[str], reg: float | str, subspace: str, tiles: pd.DataFrame | None,
+                criterion: str) -> float | tuple[float, float]:
+    """The inner cross-validation score of one column set on a fold's training ``rows`` by ``criterion`` (higher is
+    better), over the folds of :func:`clothscope.classify.loocv.inner_folds`."""
     correct, log_posterior, scored = 0, 0.0, 0
-    for train, test in splitter.split(X, y):
-        model = fit_qda(settings["reg"], *with_tiles(X[train], y[train], ids[train], tiles, used), notes,
-                        settings["subspace"])
-        correct += int((model.predict(X[test]) == y[test]).sum())
+    for model, X, y in inner_folds(rows, columns, reg, subspace, tiles, repeats=3 if criterion == "repeated" else 1):
+        correct += int((model.predict(X) == y).sum())
         if criterion in ("logloss", "tiebreak"):
-            truth_column = [list(model.classes_).index(c) for c in y[test]]
-            posterior = model.predict_proba(X[test])[np.arange(len(test)), truth_column]
+            truth_column = [list(model.classes_).index(c) for c in y]
+            posterior = model.predict_proba(X)[np.arange(len(y)), truth_column]
             log_posterior += float(np.log(np.maximum(posterior, 1e-6)).sum())
-        scored += len(test)
+        scored += len(y)
     accuracy, logloss = correct / scored, log_posterior / scored
     return {"accuracy": accuracy, "repeated": accuracy, "logloss": logloss, "tiebreak": (accuracy, logloss)}[criterion]
 
@@ -116,28 +109,14 @@ def criterion_rows(run: Path, criteria: list[str]) -> list[dict]:
     """LOOCV of the classifier of record with each inner ``criterion`` choosing the fold's column set."""
     ok, tiles, candidates = record_inputs(*run_tables(run), "auto")
     settings = classify_config()
-    labelled = split_labelled(ok)[0].reset_index(drop=True)
-    truth = labelled["fabric_class"].astype(str).to_numpy()
-    classes, order = sorted(set(truth)), list(candidates)
     rows = []
     for criterion in criteria:
-        correct, chosen = 0, {}
-        for i in range(len(labelled)):
-            training = labelled.drop(index=i)
-            scores = {}
-            for name, columns in candidates.items():
-                try:
-                    scores[name] = inner_score(training, columns, criterion, settings, tiles)
-                except ValueError:  # a set that cannot be scored on these rows is not chosen (as in the workflow)
-                    continue
-            name = max(scores, key=lambda n: (scores[n], -order.index(n)))
-            chosen[name] = chosen.get(name, 0) + 1
-            posterior = held_out_posterior(training, candidates[name], labelled.iloc[[i]], classes, settings, tiles)
-            correct += int(classes[int(posterior.argmax())] == truth[i])
+        result = loocv(ok, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles,
+                       score=partial(inner_score, criterion=criterion))
         rows.append({"run": shown(run), "candidates": f"inner criterion: {criterion}"
                      + (" (the classifier of record)" if criterion == "accuracy" else ""),
-                     "correct": correct, "images": len(labelled), "accuracy": correct / len(labelled),
-                     "folds_chose": ", ".join(f"{n} {c}" for n, c in sorted(chosen.items(), key=lambda kv: -kv[1]))})
+                     "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
+                     "folds_chose": ", ".join(f"{n} {c}" for n, c in sorted(result.selected.items(), key=lambda kv: -kv[1]))})
     return rows
 
 

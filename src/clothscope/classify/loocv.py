@@ -14,12 +14,13 @@ for a class of two images or a feature that is constant within a class.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
-from sklearn.model_selection import StratifiedKFold
+from sklearn.model_selection import RepeatedStratifiedKFold, StratifiedKFold
 
 from clothscope.classify.model import predict, train_model
 from clothscope.classify.qda import check_reg, check_subspace, fit_qda, posteriors
@@ -106,20 +107,31 @@ def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, flo
 INNER_FOLDS = 5
 
 
-def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto", subspace: str = "none",
-                   tiles: pd.DataFrame | None = None) -> float:
-    """Accuracy of :func:`make_qda` by stratified k-fold (k = :data:`INNER_FOLDS` or the smallest class) over labelled rows.
+def inner_folds(table: pd.DataFrame, columns: list[str], reg: float | str, subspace: str, tiles: pd.DataFrame | None,
+                repeats: int = 1) -> Iterator[tuple[Any, np.ndarray, np.ndarray]]:
+    """``(model, X_test, y_test)`` of each fold of a stratified k-fold (k = :data:`INNER_FOLDS` or the smallest class)
+    over the labelled rows, ``repeats`` times with other splits.
 
-    Each fold also trains on the ``tiles`` of its training images (:func:`with_tiles`) and scores whole images.
+    Each fold's :func:`make_qda` also trains on the ``tiles`` of its training images (:func:`with_tiles`); the
+    test rows are whole images.
     """
     labelled, _, notes, used, _, X, y = labelled_data(table, columns, MIN_LOOCV_PER_CLASS, "choosing a feature set")
     ids = labelled["image_id"].astype(str).to_numpy()
-    folds = StratifiedKFold(n_splits=min(INNER_FOLDS, int(pd.Series(y).value_counts().min())), shuffle=True, random_state=0)
-    correct = 0
+    k = min(INNER_FOLDS, int(pd.Series(y).value_counts().min()))
+    folds = (StratifiedKFold(n_splits=k, shuffle=True, random_state=0) if repeats == 1
+             else RepeatedStratifiedKFold(n_splits=k, n_repeats=repeats, random_state=0))
     for train, test in folds.split(X, y):
-        model = fit_qda(reg, *with_tiles(X[train], y[train], ids[train], tiles, used), notes, subspace)
-        correct += int((model.predict(X[test]) == y[test]).sum())
-    return correct / len(y)
+        yield fit_qda(reg, *with_tiles(X[train], y[train], ids[train], tiles, used), notes, subspace), X[test], y[test]
+
+
+def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto", subspace: str = "none",
+                   tiles: pd.DataFrame | None = None) -> float:
+    """Accuracy of :func:`make_qda` over the folds of :func:`inner_folds` (whole images scored)."""
+    correct = scored = 0
+    for model, X, y in inner_folds(table, columns, reg, subspace, tiles):
+        correct += int((model.predict(X) == y).sum())
+        scored += len(y)
+    return correct / scored
 
 
 def _distinct_candidates(table: pd.DataFrame, candidates: dict[str, list[str]]) -> dict[str, list[str]]:
@@ -144,9 +156,15 @@ def _distinct_candidates(table: pd.DataFrame, candidates: dict[str, list[str]]) 
     return distinct
 
 
+#: An inner score of one column set: called as ``score(table, columns, reg, subspace, tiles)``; higher is better.
+InnerScore = Callable[..., Any]
+
+
 def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str = "auto",
-                   subspace: str = "none", tiles: pd.DataFrame | None = None) -> tuple[str, dict[str, float]]:
-    """The candidate column set with the highest :func:`inner_accuracy` on ``table`` (ties: the first listed), and every score.
+                   subspace: str = "none", tiles: pd.DataFrame | None = None,
+                   score: InnerScore = inner_accuracy) -> tuple[str, dict[str, Any]]:
+    """The candidate column set with the highest ``score`` (:func:`inner_accuracy` by default) on ``table``
+    (ties: the first listed), and every score.
 
     A single candidate is returned as it is, unscored.
 
@@ -159,11 +177,11 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
         if not candidates:
             raise ValueError("no candidate feature set to choose from")
         return next(iter(candidates)), {}
-    scores: dict[str, float] = {}
+    scores: dict[str, Any] = {}
     problems = []
     for name, columns in _distinct_candidates(table, candidates).items():
         try:
-            scores[name] = inner_accuracy(table, columns, reg, subspace, tiles)
+            scores[name] = score(table, columns, reg, subspace, tiles)
         except ValueError as err:
             problems.append(f"{name}: {str(err).splitlines()[0]}")
     if not scores:
@@ -174,7 +192,7 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
 
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
           select_from: dict[str, list[str]] | None = None, subspace: str = "none",
-          tiles: pd.DataFrame | None = None) -> LoocvResult:
+          tiles: pd.DataFrame | None = None, score: InnerScore = inner_accuracy) -> LoocvResult:
     """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
 
     Each labelled image is classified by a model fitted (scaler included) on
@@ -201,6 +219,8 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
     tiles
         Tile rows (:func:`clothscope.classify.feature_sets.joined_tiles`): each fold also trains on the
         tiles of its training images, never on those of the image it scores, which is scored by its own row.
+    score
+        The inner score :func:`choose_columns` chooses by (with ``select_from``).
 
     Returns
     -------
@@ -229,7 +249,7 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         train = np.arange(n) != i
         if select_from:
             rows = labelled.iloc[np.flatnonzero(train)]
-            name, _ = choose_columns(rows, select_from, reg, subspace, tiles)
+            name, _ = choose_columns(rows, select_from, reg, subspace, tiles, score)
             selected[name] = selected.get(name, 0) + 1
             model = train_model(rows, select_from[name], reg, subspace, tiles)
             if model.classes != classes:
