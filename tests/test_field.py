@@ -20,6 +20,7 @@ from clothscope.synth.field import (
     CAPTURES,
     FIELD_FABRICS,
     FOOTPRINT_HALF,
+    CaptureRange,
     FieldHeight,
     draw_field,
     field_index,
@@ -44,6 +45,23 @@ def test_a_subset_of_classes_indexes_the_same_images_and_the_schema_knows_every_
         field_index(2, ["twill", "denim"])
     schema = load_schema(SCHEMAS / "config.schema.yaml")["properties"]["synthesize"]["properties"]["field"]["properties"]["classes"]
     assert schema["items"]["enum"] == list(FIELD_FABRICS)
+
+
+def test_a_capture_range_draws_only_its_captures_and_thread_counts():
+    macro = CaptureRange(("macro_ring", "macro_coaxial"), (12.0, 48.0))
+    draws = [draw_field(fabric, field_rng(5, fabric, k), macro) for fabric, k, _ in field_index(10, ["broadcloth", "twill"])]
+    assert {d.capture for d in draws} == {"macro_ring", "macro_coaxial"}
+    assert all(12 <= d.resolution / d.period_px <= 48 for d in draws)
+    assert draw_field("satin", field_rng(5, "satin", 0)) == draw_field("satin", field_rng(5, "satin", 0), CaptureRange())
+    assert CaptureRange.from_settings({"captures": [], "threads_across": []}) == CaptureRange()
+    schema = load_schema(SCHEMAS / "config.schema.yaml")["properties"]["synthesize"]["properties"]["field"]["properties"]
+    assert schema["captures"]["items"]["enum"] == list(CAPTURES)
+    with pytest.raises(ValueError, match="captures must name"):
+        CaptureRange(("phone_selfie",))
+    with pytest.raises(ValueError, match="0 < low < high"):
+        CaptureRange(threads_across=(48.0, 12.0))
+    with pytest.raises(ValueError, match="leaves no period"):
+        draw_field("twill", field_rng(5, "twill", 0), CaptureRange(threads_across=(1.0, 2.0)))
 
 
 def test_index_covers_nine_classes_and_draws_stay_in_their_ranges():

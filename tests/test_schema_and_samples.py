@@ -5,7 +5,7 @@ import pytest
 import yaml
 from conftest import ROOT, SCHEMAS
 
-from clothscope.core.config import check_sample_counts, multijitter_count
+from clothscope.core.config import check_sample_counts, check_threads_across, multijitter_count
 from clothscope.core.samples import load_sample_sheet, sheet_from_folder, sheet_to_tsv
 from clothscope.core.schema import InputError, apply_preset, load_schema, validate
 
@@ -80,6 +80,16 @@ def test_a_count_the_sampler_would_round_is_refused_in_one_line(stage, key):
         check_sample_counts(config)
     assert str(err.value) == f"config: fit.{stage}.{key}: the multijitter sampler draws 35 samples per pixel when asked for 32; ask for 30 or 35"
     check_sample_counts(validate({"fit": {stage: {key: 32, "sampler": "independent"}}}, CONFIG_SCHEMA, "config"))
+
+
+def test_a_field_thread_range_must_be_low_to_high_and_have_two_ends():
+    check_threads_across(validate({}, CONFIG_SCHEMA, "config"))
+    check_threads_across(validate({"synthesize": {"field": {"threads_across": [12, 48]}}}, CONFIG_SCHEMA, "config"))
+    with pytest.raises(InputError) as err:
+        check_threads_across(validate({"synthesize": {"field": {"threads_across": [48, 12]}}}, CONFIG_SCHEMA, "config"))
+    assert str(err.value) == "config: synthesize.field.threads_across: [low, high] needs low < high, got [48, 12]"
+    with pytest.raises(InputError):
+        validate({"synthesize": {"field": {"threads_across": [12]}}}, CONFIG_SCHEMA, "config")
 
 
 def test_default_sheet_loads_with_every_file(tmp_path):

@@ -3,7 +3,11 @@ import os
 import sys
 
 from clothscope.classify.outputs import IN_SNAKEMAKE_REPORT, RECORDS_FILE, REPORT_FILES
-from clothscope.core.config import SCHEMA_PATH, check_sample_counts
+from clothscope.core.config import (
+    SCHEMA_PATH,
+    check_sample_counts,
+    check_threads_across,
+)
 from clothscope.core.imageio import file_problem
 from clothscope.core.samples import SAMPLES_SCHEMA_PATH, load_sample_sheet
 from clothscope.core.schema import InputError, apply_preset, load_schema, validate
@@ -20,6 +24,7 @@ try:
     config.update(apply_preset(config, PRESETS))
     config.update(validate(config, load_schema(SCHEMA_PATH), "config"))
     check_sample_counts(config)
+    check_threads_across(config)
     SAMPLES = load_sample_sheet(config["samples"], SAMPLES_SCHEMA_PATH)
 except InputError as err:
     fail(err)

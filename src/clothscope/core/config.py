@@ -120,3 +120,16 @@ def check_sample_counts(config: Mapping[str, Any]) -> None:
                 below = next(n for n in range(asked - 1, 0, -1) if multijitter_count(n) == n)
                 raise InputError(f"config: fit.{stage}.{key}: the multijitter sampler draws {multijitter_count(asked)} "
                                  f"samples per pixel when asked for {asked}; ask for {below} or {multijitter_count(asked)}")
+
+
+def check_threads_across(config: Mapping[str, Any]) -> None:
+    """Refuse a ``synthesize.field.threads_across`` whose low end is not below its high end (the schema cannot say it).
+
+    Raises
+    ------
+    InputError
+        One line naming the key and the values.
+    """
+    span = list(config["synthesize"]["field"].get("threads_across") or [])
+    if span and not span[0] < span[1]:
+        raise InputError(f"config: synthesize.field.threads_across: [low, high] needs low < high, got {span}")

@@ -9,7 +9,8 @@ like, with the same kind of ground truth:
   and checks, melange and fibre hairiness;
 - capture: a phone camera (60-75 degree field of view, close up) under window
   light, its flash or a lamp, or a macro lens with a ring or coaxial light;
-  native images of 1024-2048 px with thread periods of 3-60 px;
+  native images of 1024-2048 px with thread periods of 3-60 px (a
+  :class:`CaptureRange` narrows the captures and the threads across the frame);
 - imaging: defocus, vignetting, white-balance shift, auto exposure (the
   mean of each pixel's brightest channel set to a mid grey; some frames
   over-exposed, where highlights clip), sensor noise and JPEG at quality 60-95.
@@ -140,15 +141,44 @@ def draw_colour(spec: FabricSpec, weave_variant: str, rng: np.random.Generator) 
     return scheme, (str(first), str(second)), widths
 
 
-def draw_field(fabric: str, rng: np.random.Generator) -> FieldDraw:
-    """Random cloth, capture and imaging for one image of ``fabric``."""
+@dataclass(frozen=True)
+class CaptureRange:
+    """Which captures a field set draws from, and how many threads its frames hold across."""
+
+    captures: tuple[str, ...] = CAPTURES
+    threads_across: tuple[float, float] = THREADS_ACROSS
+
+    def __post_init__(self) -> None:
+        unknown = [c for c in self.captures if c not in CAPTURES]
+        if not self.captures or unknown:
+            raise ValueError(f"captures must name some of {', '.join(CAPTURES)}, got {list(self.captures)}")
+        low, high = self.threads_across
+        if not 0 < low < high:
+            raise ValueError(f"threads_across must be [low, high] with 0 < low < high, got {list(self.threads_across)}")
+
+    @classmethod
+    def from_settings(cls, settings: dict[str, Any]) -> CaptureRange:
+        """From the ``synthesize.field`` config (an empty list: :data:`CAPTURES`, :data:`THREADS_ACROSS`)."""
+        captures = tuple(settings.get("captures") or CAPTURES)
+        low, high = settings.get("threads_across") or THREADS_ACROSS
+        return cls(captures, (float(low), float(high)))
+
+
+def draw_field(fabric: str, rng: np.random.Generator, captures: CaptureRange = CaptureRange()) -> FieldDraw:
+    """Random cloth, capture and imaging for one image of ``fabric``, among ``captures``.
+
+    The thread period is log-uniform over what ``captures.threads_across`` allows
+    in the drawn frame, within 3-60 native pixels.
+    """
     spec, u = FIELD_FABRICS[fabric], rng.uniform
     weave_variant = str(rng.choice(["twill21", "twill31"])) if spec.weave == "twill" else spec.weave
-    capture = str(rng.choice(CAPTURES))
+    capture = str(rng.choice(captures.captures))
     macro = capture.startswith("macro")
     resolution = int(rng.choice(RESOLUTIONS[:2] if macro else RESOLUTIONS))
-    low = max(3.0, resolution / THREADS_ACROSS[1])
-    high = min(60.0, resolution / THREADS_ACROSS[0])
+    low = max(3.0, resolution / captures.threads_across[1])
+    high = min(60.0, resolution / captures.threads_across[0])
+    if low >= high:
+        raise ValueError(f"threads_across {list(captures.threads_across)} leaves no period of 3-60 px in a {resolution} px frame")
     period = float(np.exp(u(np.log(low), np.log(high)))) if spec.periodic else float(u(2.0, 6.0))
     scheme, dyes, widths = draw_colour(spec, weave_variant, rng)
     fold_scale = 0.5 if macro else 1.0
@@ -331,8 +361,9 @@ class FieldPhoto:
 
 
 def synthesize_field(fabric: str, number: int, seed: int, spp: int, max_mesh_resolution: int,
-                     variant: str, threads: int | None = None, scale: float = 1.0) -> FieldPhoto:
-    """Generate field image number ``number`` of ``fabric``.
+                     variant: str, threads: int | None = None, scale: float = 1.0,
+                     captures: CaptureRange = CaptureRange()) -> FieldPhoto:
+    """Generate field image number ``number`` of ``fabric``, its capture drawn among ``captures``.
 
     ``scale`` < 1 renders the same scene at a fraction of its native
     resolution (thread period and defocus scale with it), for tests.
@@ -351,7 +382,7 @@ def synthesize_field(fabric: str, number: int, seed: int, spp: int, max_mesh_res
 
     started = time.perf_counter()
     spec, rng = FIELD_FABRICS[fabric], field_rng(seed, fabric, number)
-    draw = draw_field(fabric, rng)
+    draw = draw_field(fabric, rng, captures)
     if scale != 1.0:
         draw = replace(draw, resolution=int(round(draw.resolution * scale)), period_px=draw.period_px * scale,
                        defocus_px=draw.defocus_px * scale)
@@ -432,6 +463,6 @@ def synthesize_field_job(image_id: str, fabric: str, settings: dict[str, Any], v
     if not number.isdigit():
         raise ValueError(f"image id {image_id!r} must be <class>_<two-digit number>")
     photo = synthesize_field(fabric, int(number), settings["seed"], settings["spp"], settings["max_mesh_resolution"],
-                             variant, threads)
+                             variant, threads, captures=CaptureRange.from_settings(settings))
     save_field(photo, target)
     return photo
