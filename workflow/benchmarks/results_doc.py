@@ -80,10 +80,11 @@ def workflow_runs(results: Path) -> list[Run]:
     confirm = (".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/confirm_1126.yaml"
                f" && .venv/bin/snakemake --cores 2 --config samples={r}/confirm_1126/holdout/samples.tsv "
                f"results={r}/confirm_1126/run")
-    weaves, fresh, period = (
+    weaves, fresh, period, microscope = (
         f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
-        for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh"), ("weaves_period", "weaves_period")))
+        for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh"), ("weaves_period", "weaves_period"),
+                                ("microscope", "microscope")))
     default_sheet = ROOT / "config" / "samples.tsv"
     return [
         Run("design", results, default_sheet, design),
@@ -94,6 +95,8 @@ def workflow_runs(results: Path) -> list[Run]:
         Run("three weaves, fresh", results / "weaves_fresh" / "run", results / "weaves_fresh" / "field" / "samples.tsv", fresh),
         Run("three weaves, fourth", results / "weaves_period" / "run", results / "weaves_period" / "field" / "samples.tsv",
             period),
+        Run("microscope-like weaves", results / "microscope" / "run", results / "microscope" / "field" / "samples.tsv",
+            microscope),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
