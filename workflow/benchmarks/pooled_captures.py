@@ -8,10 +8,11 @@ scores every fixed feature set of ``results/reports/feature_sets.md`` on the poo
 macro captures (ring, coaxial), of the phone captures (flash, lamp, window) and on all of them.
 The capture of each image comes from its ground-truth record (``draw.capture``).
 
-    .venv/bin/python workflow/benchmarks/pooled_captures.py [--set RUN SHEET ...] [--name pooled_captures]
+    .venv/bin/python workflow/benchmarks/pooled_captures.py [--set RUN SHEET ...] [--each] [--name pooled_captures]
 
 Default: the four three-weave runs (seeds 20261203, 20261208, 20261226, 20261227). Writes
 ``results/bench/<name>.{csv,md}``. Takes about 6 minutes on 2 cores. Nothing is chosen here.
+``--each`` also scores every capture on its own; a group with no images is left out.
 """
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ from harness import ROOT, publish, shown, validated_config
 from pooled_sets import SOURCES, read_tables
 
 from clothscope.classify.feature_sets import compare_feature_sets
+from clothscope.synth.field import CAPTURES
 
 #: Capture groups scored, by the field generator's capture names (None: every image).
 GROUPS = {"macro (ring, coaxial)": ("macro_ring", "macro_coaxial"),
@@ -60,6 +62,11 @@ def pooled(runs: list[tuple[Path, Path]]) -> dict[str, pd.DataFrame]:
     return {source: pd.concat(tables, ignore_index=True) for source, tables in stacked.items()}
 
 
+def capture_groups(each: bool) -> dict[str, tuple[str, ...] | None]:
+    """The groups scored: :data:`GROUPS`, and with ``each`` every capture of the field generator alone."""
+    return GROUPS | ({name: (name,) for name in CAPTURES} if each else {})
+
+
 def summary(table: pd.DataFrame, runs: list[tuple[Path, Path]]) -> str:
     """The Markdown report: one row per feature set, one column per capture group."""
     wide = table.pivot(index="feature_set", columns="captures", values="cell").reindex(table["feature_set"].unique())
@@ -67,21 +74,24 @@ def summary(table: pd.DataFrame, runs: list[tuple[Path, Path]]) -> str:
             "LOOCV QDA with the workflow's classifier settings, whole images (no tiles), on the pooled images of "
             + ", ".join(f"`{shown(run)}`" for run, _ in runs)
             + ". Cells: correct / images (accuracy, 95% Wilson interval); chance is one over the number of classes.\n\n"
-            + wide[list(GROUPS)].to_markdown() + "\n")
+            + wide[list(table["captures"].unique())].to_markdown() + "\n")
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--set", nargs=2, action="append", metavar=("RUN", "SHEET"), dest="sets",
                         help="a run folder and the field sheet it was run on (repeat; default: the four weave runs)")
+    parser.add_argument("--each", action="store_true", help="also score every capture on its own")
     parser.add_argument("--name", default="pooled_captures", help="report name under results/bench/")
     args = parser.parse_args()
     runs = [(ROOT / run, ROOT / sheet) for run, sheet in (args.sets or WEAVE_RUNS)]
     classify = validated_config()["classify"]
     tables = pooled(runs)
     rows = []
-    for group, names in GROUPS.items():
+    for group, names in capture_groups(args.each).items():
         chosen = {source: t if names is None else t[t["capture"].isin(names)] for source, t in tables.items()}
+        if min(len(t) for t in chosen.values()) == 0:
+            continue
         report = compare_feature_sets(chosen, classify["reg"], classify["subspace"])
         for row in report[(report["status"] == "ok") & ~report["feature_set"].str.startswith("auto")].itertuples():
             rows.append({"captures": group, "feature_set": row.feature_set, "correct": int(row.correct), "n": int(row.n),

@@ -80,11 +80,11 @@ def workflow_runs(results: Path) -> list[Run]:
     confirm = (".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/confirm_1126.yaml"
                f" && .venv/bin/snakemake --cores 2 --config samples={r}/confirm_1126/holdout/samples.tsv "
                f"results={r}/confirm_1126/run")
-    weaves, fresh, period, microscope = (
+    weaves, fresh, period, microscope, microscope_confirm = (
         f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
         for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh"), ("weaves_period", "weaves_period"),
-                                ("microscope", "microscope")))
+                                ("microscope", "microscope"), ("microscope_confirm", "microscope_confirm")))
     default_sheet = ROOT / "config" / "samples.tsv"
     return [
         Run("design", results, default_sheet, design),
@@ -97,6 +97,8 @@ def workflow_runs(results: Path) -> list[Run]:
             period),
         Run("microscope-like weaves", results / "microscope" / "run", results / "microscope" / "field" / "samples.tsv",
             microscope),
+        Run("microscope-like weaves, second", results / "microscope_confirm" / "run",
+            results / "microscope_confirm" / "field" / "samples.tsv", microscope_confirm),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -333,6 +335,17 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Thread periods on a fourth three-weave set (seed 20261227)", ("bench/field_set_weaves_period.md",),
                         f"{py}/field_set.py --field results/weaves_period/field --run results/weaves_period/run "
                         "--name field_set_weaves_period"),
+        BenchmarkReport("Thread periods on the microscope-like weave set (seed 20261228)", ("bench/field_set_microscope.md",),
+                        f"{py}/field_set.py --field results/microscope/field --run results/microscope/run "
+                        "--name field_set_microscope"),
+        BenchmarkReport("Thread periods on the second microscope-like weave set (seed 20261229)",
+                        ("bench/field_set_microscope_confirm.md",),
+                        f"{py}/field_set.py --field results/microscope_confirm/field --run results/microscope_confirm/run "
+                        "--name field_set_microscope_confirm"),
+        BenchmarkReport("Feature sets by capture, the two microscope-like weave sets pooled", ("bench/pooled_microscope.md",),
+                        f"{py}/pooled_captures.py --set results/microscope/run results/microscope/field/samples.tsv "
+                        "--set results/microscope_confirm/run results/microscope_confirm/field/samples.tsv "
+                        "--each --name pooled_microscope"),
         BenchmarkReport("Thread periods on a fresh nine-class set (seed 20261207)", ("bench/field_set_confirm.md",),
                         f"{py}/field_set.py --field results/period_confirm/field --run results/period_confirm/run "
                         "--name field_set_confirm"),
