@@ -11,7 +11,7 @@ The capture of each image comes from its ground-truth record (``draw.capture``).
     .venv/bin/python workflow/benchmarks/pooled_captures.py [--set RUN SHEET ...] [--each] [--name pooled_captures]
 
 Default: the four three-weave runs (seeds 20261203, 20261208, 20261226, 20261227). Writes
-``results/bench/<name>.{csv,md}``. Takes about 6 minutes on 2 cores. Nothing is chosen here.
+``results/bench/<name>.{csv,md}``. Nothing is chosen here.
 ``--each`` also scores every capture on its own; a group with no images is left out.
 """
 from __future__ import annotations
@@ -24,13 +24,15 @@ import pandas as pd
 from harness import ROOT, publish, shown, validated_config
 from pooled_sets import SOURCES, read_tables
 
-from clothscope.classify.feature_sets import compare_feature_sets
+from clothscope.classify.feature_sets import FEATURE_SETS, compare_feature_sets
 from clothscope.synth.field import CAPTURES
 
 #: Capture groups scored, by the field generator's capture names (None: every image).
 GROUPS = {"macro (ring, coaxial)": ("macro_ring", "macro_coaxial"),
           "phone (flash, lamp, window)": ("phone_flash", "phone_lamp", "phone_window"),
           "all": None}
+#: The feature sets scored: every fixed one (the ``auto`` sets choose inside each fold and are left out).
+FIXED_SETS = tuple(feature_set for feature_set in FEATURE_SETS if not feature_set.name.startswith("auto"))
 #: The three-weave runs of the project and their sample sheets.
 WEAVE_RUNS = (("results/weaves/run", "results/weaves/field/samples.tsv"),
               ("results/weaves_confirm/run", "results/weaves_confirm/field/samples.tsv"),
@@ -88,12 +90,16 @@ def main() -> int:
     classify = validated_config()["classify"]
     tables = pooled(runs)
     rows = []
+    reports: dict[frozenset[str], pd.DataFrame] = {}  # a group holding the same images as an earlier one is not scored again
     for group, names in capture_groups(args.each).items():
         chosen = {source: t if names is None else t[t["capture"].isin(names)] for source, t in tables.items()}
         if min(len(t) for t in chosen.values()) == 0:
             continue
-        report = compare_feature_sets(chosen, classify["reg"], classify["subspace"])
-        for row in report[(report["status"] == "ok") & ~report["feature_set"].str.startswith("auto")].itertuples():
+        images = frozenset(next(iter(chosen.values()))["image_id"])
+        if images not in reports:
+            reports[images] = compare_feature_sets(chosen, classify["reg"], classify["subspace"], feature_sets=FIXED_SETS)
+        report = reports[images]
+        for row in report[report["status"] == "ok"].itertuples():
             rows.append({"captures": group, "feature_set": row.feature_set, "correct": int(row.correct), "n": int(row.n),
                          "accuracy": float(row.accuracy), "chance": float(row.chance),
                          "cell": f"{row.correct}/{row.n} ({100 * row.accuracy:.1f}%, "

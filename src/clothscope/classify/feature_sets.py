@@ -207,8 +207,9 @@ def paired_with_best_photo(report: pd.DataFrame, hits: dict[str, pd.Series]) -> 
 
 
 def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subspace: str,
-                         tile_tables: dict[str, pd.DataFrame] | None = None) -> pd.DataFrame:
-    """Every feature set whose sources are all in ``tables``, scored on the images usable in all of them
+                         tile_tables: dict[str, pd.DataFrame] | None = None,
+                         feature_sets: tuple[FeatureSet, ...] = FEATURE_SETS) -> pd.DataFrame:
+    """Every one of ``feature_sets`` whose sources are all in ``tables``, scored on the images usable in all of them
     (each fold also trains on the tiles of its training images, :func:`joined_tiles`).
 
     ``truth`` is left out of the common image set when some of those images
@@ -218,7 +219,7 @@ def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subs
     images = common_images(base) if base else common_images(tables)
     rows = []
     hits: dict[str, pd.Series] = {}
-    for feature_set in FEATURE_SETS:
+    for feature_set in feature_sets:
         if not all(source in tables for source in feature_set.sources):
             continue
         if "truth" in feature_set.sources and not set(images) <= set(map(str, usable(tables["truth"]).index)):
