@@ -17,7 +17,7 @@ from clothscope.core.runtime import mitsuba_for
 from clothscope.fit import jobs
 from clothscope.fit.effects import Evidence, geometry_evidence, plan_stage
 from clothscope.fit.loop import LoopSettings, optimise, render_seed
-from clothscope.fit.model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
+from clothscope.fit.model import BSDF_KEYS, FitCamera, FitLight, FitScene, Material, build_scene, plane_grid
 from clothscope.fit.normals import NormalSettings, cavity_factor_np, height_to_normals_np, initial_height, relief_prior
 from clothscope.prepare.image import prepare_image
 
@@ -59,7 +59,7 @@ def assert_all_finite(state: dict, normals_dir) -> None:
     assert all(0.0 <= c <= 1.0 for c in m["base_color"])
 
 
-def render_case(mi, path, material: Material, light: PointLight, grid: np.ndarray | None = None, gain: float = 1.0) -> None:
+def render_case(mi, path, material: Material, light: FitLight, grid: np.ndarray | None = None, gain: float = 1.0) -> None:
     """Render a 64 px photo of the fit model itself and save it as an 8-bit sRGB PNG."""
     camera = FitCamera()
     fit = FitScene(camera, light, plane_grid(camera, 32, 0.06) if grid is None else grid, 0.06, material)
@@ -132,7 +132,7 @@ def test_a_striped_flat_cloth_keeps_its_stripes_in_the_colour_and_out_of_the_rel
     from clothscope.fit.model import shaded_texture
 
     camera, material = FitCamera(), Material((0.5, 0.5, 0.5), 0.3, 0.7)
-    fit = FitScene(camera, PointLight(15, 30), plane_grid(camera, 32, 0.06), 0.06, material)
+    fit = FitScene(camera, FitLight(15, 30), plane_grid(camera, 32, 0.06), 0.06, material)
     columns = np.arange(64)
     stripes = np.where((columns // 8) % 2 == 1, np.array([[1.3], [1.2], [0.9]]), np.array([[0.3], [0.4], [1.0]])).T
     layout = np.broadcast_to(stripes[None, :, :], (64, 64, 3))  # navy and ecru stripes along the columns
@@ -156,11 +156,11 @@ def test_a_striped_flat_cloth_keeps_its_stripes_in_the_colour_and_out_of_the_rel
 
 
 HARD_CASES = {
-    "black_cloth": dict(material=Material((0.004, 0.004, 0.005), 0.5, 0.6), light=PointLight(20, 40)),
-    "saturated_white": dict(material=Material((0.95, 0.95, 0.95), 1.0, 0.15), light=PointLight(10, 0), gain=1.0),
-    "grazing_light": dict(material=Material((0.5, 0.3, 0.2), 0.5, 0.5), light=PointLight(82, 120)),
-    "near_mirror": dict(material=Material((0.2, 0.2, 0.6), 1.0, 0.01), light=PointLight(5, 0)),
-    "deep_folds": dict(material=Material((0.6, 0.6, 0.5), 0.5, 0.6), light=PointLight(30, 90), grid=folded_grid(0.35)),
+    "black_cloth": dict(material=Material((0.004, 0.004, 0.005), 0.5, 0.6), light=FitLight(20, 40)),
+    "saturated_white": dict(material=Material((0.95, 0.95, 0.95), 1.0, 0.15), light=FitLight(10, 0), gain=1.0),
+    "grazing_light": dict(material=Material((0.5, 0.3, 0.2), 0.5, 0.5), light=FitLight(82, 120)),
+    "near_mirror": dict(material=Material((0.2, 0.2, 0.6), 1.0, 0.01), light=FitLight(5, 0)),
+    "deep_folds": dict(material=Material((0.6, 0.6, 0.5), 0.5, 0.6), light=FitLight(30, 90), grid=folded_grid(0.35)),
 }
 
 
@@ -194,7 +194,7 @@ def test_hard_cases_stay_finite(mi, tmp_path, case):
 ])
 def test_relief_prior_only_under_a_light_near_the_camera(polar, smoothness, near_weight, expected):
     settings = replace(TINY["normals"], smoothness=smoothness, near_camera_deg=10.0, near_camera_smoothness=near_weight)
-    fitted_with, record = relief_prior(settings, PointLight(polar, 120.0))
+    fitted_with, record = relief_prior(settings, FitLight(polar, 120.0))
     assert fitted_with.smoothness == expected == record["smoothness"]
     assert record["near_camera"] == (polar < 10.0) and record["light_from_camera_deg"] == polar
     assert replace(fitted_with, smoothness=settings.smoothness) == settings  # nothing else changes
@@ -213,7 +213,7 @@ def test_gradients_match_finite_differences(mi):
     import drjit as dr
 
     camera = FitCamera()
-    fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8, 0.06), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
+    fit = FitScene(camera, FitLight(25, 60), plane_grid(camera, 8, 0.06), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
     scene = build_scene(mi, fit, 16, {"type": "direct"}, "independent")
     params = mi.traverse(scene)
 
@@ -241,7 +241,7 @@ def test_loss_image_and_gradient_pass_take_their_own_sample_counts(mi):
     from clothscope.fit.loop import render
 
     camera = FitCamera()
-    fit = FitScene(camera, PointLight(25, 60), plane_grid(camera, 8, 0.06), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
+    fit = FitScene(camera, FitLight(25, 60), plane_grid(camera, 8, 0.06), 0.06, Material((0.4, 0.3, 0.2), 0.5, 0.4))
     scene = build_scene(mi, fit, 16, {"type": "direct"}, "independent")
     params = mi.traverse(scene)
     reference = np.array(mi.render(scene, spp=8, seed=5))
@@ -322,7 +322,7 @@ def test_fit_seed_refits_with_other_samples_and_is_recorded(tmp_path):
 
 
 def test_effects_plan_simulates_only_what_the_scene_needs():
-    camera, light = FitCamera(), PointLight(30.0, 45.0)
+    camera, light = FitCamera(), FitLight(30.0, 45.0)
     flat = geometry_evidence(plane_grid(camera, 16, 0.06), camera, light)
     assert flat == Evidence(False, False, False, False)
     assert plan_stage("geometry", flat).integrator == "direct_unshadowed"
@@ -331,10 +331,10 @@ def test_effects_plan_simulates_only_what_the_scene_needs():
     deep = geometry_evidence(folded_grid(0.35), camera, light)
     assert deep.facing_folds
     assert plan_stage("material", deep).integrator == "prb" and plan_stage("material", deep).max_depth == 3
-    shadowed = geometry_evidence(folded_grid(0.05), camera, PointLight(82.0, 0.0))
+    shadowed = geometry_evidence(folded_grid(0.05), camera, FitLight(82.0, 0.0))
     assert shadowed.cast_shadows and not shadowed.facing_folds
     assert plan_stage("normals", shadowed).integrator == "direct"
-    assert not geometry_evidence(folded_grid(0.05), camera, PointLight(20.0, 0.0)).cast_shadows
+    assert not geometry_evidence(folded_grid(0.05), camera, FitLight(20.0, 0.0)).cast_shadows
     occluded = Evidence(self_occlusion=True, cast_shadows=True)
     assert plan_stage("geometry", occluded).integrator == "direct_projective"
     assert plan_stage("normals", occluded).integrator == "direct"  # geometry fixed: no visibility gradients
@@ -361,7 +361,7 @@ def render_with_gradient(mi, fit: FitScene, integrator: dict) -> tuple[np.ndarra
 
 @pytest.mark.parametrize("amplitude, polar", [(0.0, 30.0), (0.05, 20.0)])
 def test_unshadowed_integrator_matches_direct_where_nothing_casts_shadows(mi, amplitude, polar):
-    camera, light = FitCamera(), PointLight(polar, 60.0)
+    camera, light = FitCamera(), FitLight(polar, 60.0)
     fit = FitScene(camera, light, folded_grid(amplitude), 0.06, Material((0.6, 0.3, 0.2), 0.5, 0.4))
     assert not geometry_evidence(fit.grid, camera, light).cast_shadows
     direct, d_direct = render_with_gradient(mi, fit, {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0})
@@ -371,7 +371,7 @@ def test_unshadowed_integrator_matches_direct_where_nothing_casts_shadows(mi, am
 
 
 def test_shadows_are_missing_only_from_the_unshadowed_integrator(mi):
-    camera, light = FitCamera(), PointLight(82.0, 0.0)
+    camera, light = FitCamera(), FitLight(82.0, 0.0)
     fit = FitScene(camera, light, folded_grid(0.05), 0.06, Material((0.6, 0.6, 0.6), 0.5, 0.6))
     assert geometry_evidence(fit.grid, camera, light).cast_shadows
     direct, _ = render_with_gradient(mi, fit, {"type": "direct"})
@@ -402,7 +402,7 @@ def test_unshadowed_backward_pass_gives_mitsubas_gradient_without_rendering_the_
     from clothscope.fit import integrator
 
     rng = np.random.default_rng(0)
-    fit = FitScene(FitCamera(), PointLight(35.0, 60.0), folded_grid(0.03), 0.06, Material((0.6, 0.3, 0.2), 0.5, 0.3))
+    fit = FitScene(FitCamera(), FitLight(35.0, 60.0), folded_grid(0.03), 0.06, Material((0.6, 0.3, 0.2), 0.5, 0.3))
     height = rng.normal(scale=0.5, size=(16, 16)).astype(np.float32)
     target = rng.uniform(0.0, 0.3, size=(32, 32, 3)).astype(np.float32)
     direct = height_gradient(mi, fit, height, target)
@@ -431,7 +431,7 @@ def render_noise(mi, scene, spp: int) -> float:
 def test_fit_renders_stratify_the_pixel_and_stay_unbiased(mi):
     """The fit's sampler leaves less noise than independent samples at the same count, around the same image."""
     camera = FitCamera()
-    fit = FitScene(camera, PointLight(30, 45), plane_grid(camera, 8, 0.06), 0.06, Material((0.5, 0.4, 0.3), 0.5, 0.3))
+    fit = FitScene(camera, FitLight(30, 45), plane_grid(camera, 8, 0.06), 0.06, Material((0.5, 0.4, 0.3), 0.5, 0.3))
     u = np.arange(64) * 2 * np.pi / 16
     texture = height_to_normals_np(np.add.outer(np.sin(u), np.cos(u)).astype(np.float64)) * 0.5 + 0.5
     ours, independent = (build_scene(mi, fit, 32, {"type": "direct"}, kind, normal_texture=texture.astype(np.float32))
@@ -613,3 +613,36 @@ def test_cavity_factor_darkens_texels_below_their_ring_and_its_shade_is_written(
         start = initial_height(target, 64, 0.06, 0.3)
         correlation[strength] = np.corrcoef(start, height.ravel())[0, 1]
     assert correlation[2.0] > correlation[0.0] + 0.1
+
+
+def test_a_soft_light_is_calibrated_like_the_point_light(mi):
+    """A white matte sheet reads 0.85 at the centre under either light; the soft one, far away, does not fall off."""
+    camera, white = FitCamera(), Material((1.0, 1.0, 1.0), 0.0, 1.0)
+    readings = {}
+    for spread in (0.0, 20.0):
+        fit = FitScene(camera, FitLight(30.0, 40.0, spread_deg=spread), plane_grid(camera, 8, 0.06), 0.06, white)
+        image = np.array(mi.render(build_scene(mi, fit, 32, {"type": "direct"}, "multijitter"), spp=64, seed=1))[..., :3]
+        readings[spread] = (float(image[14:18, 14:18].mean()), float(image.std()))
+    assert readings[0.0][0] == pytest.approx(0.85, rel=0.02) and readings[20.0][0] == pytest.approx(0.85, rel=0.03)
+    assert readings[20.0][1] < 0.1 * readings[0.0][1]
+
+
+@pytest.mark.parametrize("spread", [0.0, 25.0])
+def test_the_material_stage_keeps_the_light_that_lit_the_photo(tmp_path, mi, spread):
+    """A photo of the fit model under a point or a soft light: the stage keeps that light and exports a scene that renders."""
+    from clothscope.fit.outputs import LIGHT_FILE, save_state
+
+    light, material = FitLight(35.0, 60.0), Material((0.5, 0.3, 0.2), 0.6, 0.25)
+    render_case(mi, tmp_path / "photo.png", material, replace(light, spread_deg=spread), folded_grid(0.04))
+    prepare_image("case", tmp_path / "photo.png", tmp_path / "prepared", config_settings("prepare", working_resolution=64, scale="frame"))
+    camera = FitCamera()
+    save_state(tmp_path / "geometry", FitScene(camera, light, folded_grid(0.04), 0.06, Material((0.4, 0.4, 0.4), 0.5, 0.5)), {})
+    settings = config_settings("fit.material", resolution=32, spp=4, iterations=40, soft_light_deg=25.0)
+    common = dict(variant="llvm_ad_rgb", threads=2, full_effects=False, log=LOG, sample_seed=0)
+    state = jobs.material_job(str(tmp_path / "prepared"), str(tmp_path / "geometry"), str(tmp_path / "material"), settings, **common)
+    choice = state["light_choice"]
+    assert choice["chosen"] == ("soft" if spread else "point"), choice
+    assert json.loads((tmp_path / "material" / "state.json").read_text())["scene"]["light"]["spread_deg"] == spread
+    assert (tmp_path / "material" / LIGHT_FILE).exists() == bool(spread)
+    rendered = np.array(mi.render(mi.load_file(str(tmp_path / "material" / "scene.xml")), spp=8))[..., :3]
+    assert np.all(np.isfinite(rendered)) and rendered.mean() > 0.02

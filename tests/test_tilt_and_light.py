@@ -6,12 +6,13 @@ import logging
 import numpy as np
 import pytest
 
+from clothscope.core.config import settings
 from clothscope.core.mesh import grid_faces
 from clothscope.core.runtime import mitsuba_for
-from clothscope.fit.geometry import grid_from, pinned_plane, tilted_grid
-from clothscope.fit.light import apply_light, cloth_normal, light_from_latent, tilted
+from clothscope.fit.geometry import grid_from, pinned_plane, starting_light, tilted_grid
+from clothscope.fit.light import apply_light, cloth_normal, light_from_latent, thread_light, tilted
 from clothscope.fit.loop import LoopSettings, optimise, render
-from clothscope.fit.model import FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
+from clothscope.fit.model import FitCamera, FitLight, FitScene, Material, build_scene, plane_grid
 from clothscope.fit.target import Target, image_loss
 from clothscope.fit.tilt import TiltEstimate, estimate_tilt
 
@@ -94,7 +95,7 @@ def test_prior_shrinks_uncertain_slopes_and_zero_prior_pins_level():
 
 
 def test_light_turns_with_the_cloth_keeping_its_incidence():
-    light = PointLight(30.0, 40.0, 3.0)
+    light = FitLight(30.0, 40.0, 3.0)
     assert tilted(light, 0.0, 0.0).polar_deg == pytest.approx(30.0)
     assert tilted(light, 0.0, 0.0).azimuth_deg == pytest.approx(40.0)
     turned = tilted(light, 0.15, -0.05)
@@ -124,14 +125,14 @@ def test_geometry_pins_the_plane_it_starts_from(mi):
     assert abs((fold_only * x).sum()) < 1e-4 and abs((fold_only * y).sum()) < 1e-4
 
 
-def light_scene(mi, light: PointLight, resolution: int = 32):
+def light_scene(mi, light: FitLight, resolution: int = 32):
     """A flat glossy sheet under ``light``, rendered with one bounce."""
     fit = FitScene(CAMERA, light, plane_grid(CAMERA, 16, 0.06), 0.06, Material((0.5, 0.4, 0.3), 0.5, 0.4))
     return build_scene(mi, fit, resolution, {"type": "direct"}, "independent")
 
 
 def test_rendered_light_is_the_recorded_light(mi):
-    light, normal = tilted(PointLight(25.0, 70.0, 3.0), 0.05, -0.08), cloth_normal(0.05, -0.08)
+    light, normal = tilted(FitLight(25.0, 70.0, 3.0), 0.05, -0.08), cloth_normal(0.05, -0.08)
     params = mi.traverse(light_scene(mi, light))
     latent = mi.Float(np.array([0.3, -0.2], dtype=np.float32))
     apply_light(mi, params, light, latent, normal)
@@ -144,7 +145,7 @@ def test_rendered_light_is_the_recorded_light(mi):
 
 
 def test_light_direction_is_recovered_by_gradient_descent(mi):
-    true, start = PointLight(30.0, 50.0, 3.0), PointLight(38.0, 75.0, 3.0)
+    true, start = FitLight(30.0, 50.0, 3.0), FitLight(38.0, 75.0, 3.0)
     target = Target(np.array(mi.render(light_scene(mi, true), spp=64, seed=1), dtype=np.float32)[..., :3],
                     np.ones((32, 32), dtype=np.float32))
     scene = light_scene(mi, start)
@@ -162,3 +163,50 @@ def test_light_direction_is_recovered_by_gradient_descent(mi):
     start_angle = np.degrees(np.arccos(np.array(start.position) @ np.array(true.position) / 9.0))
     assert angle < 2.0 < start_angle
     assert loop.best_loss < 0.1 * loop.curve[0]["loss"]
+
+
+def photo_of_yarns_lit_from(azimuth_deg: float | None, size: int = 160, period: float = 10.0) -> np.ndarray:
+    """A basket of round yarns (rows and columns of half-cylinders) shaded by a distant white light.
+
+    ``azimuth_deg`` (image +x = 0, +y up) puts the light 45 degrees from the normal; None puts it at the lens.
+    """
+    rows, cols = np.mgrid[0:size, 0:size].astype(float)
+    across = lambda t: np.sqrt(np.clip(1.0 - ((t % period) / period * 2.0 - 1.0) ** 2, 0.0, None))  # noqa: E731
+    height = 0.35 * period * np.maximum(across(rows), across(cols))
+    d_row, d_col = np.gradient(height)
+    normal = np.stack([-d_col, d_row, np.ones_like(height)], axis=-1)  # +y is up, against the rows
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    if azimuth_deg is None:
+        light = np.array([0.0, 0.0, 1.0])
+    else:
+        a = np.radians(azimuth_deg)
+        light = np.array([np.cos(a), np.sin(a), 1.0]) / np.sqrt(2.0)
+    shade = np.clip(normal @ light, 0.0, None)
+    return np.repeat((0.1 + 0.6 * shade)[..., None], 3, axis=2).astype(np.float32)
+
+
+@pytest.mark.parametrize("azimuth", [0.0, 70.0, 135.0, 250.0, 320.0])
+def test_threads_tell_the_side_the_light_comes_from(azimuth):
+    found, strength = thread_light(photo_of_yarns_lit_from(azimuth), np.ones((160, 160), dtype=np.float32))
+    assert abs((found - azimuth + 180.0) % 360.0 - 180.0) < 20.0
+    assert strength > 0.3
+
+
+def test_a_light_at_the_lens_or_no_relief_shows_no_side():
+    weight = np.ones((160, 160), dtype=np.float32)
+    assert thread_light(photo_of_yarns_lit_from(None), weight)[1] < 0.05
+    assert thread_light(np.full((160, 160, 3), 0.4, dtype=np.float32), weight) == (0.0, 0.0)
+    assert thread_light(photo_of_yarns_lit_from(30.0), np.zeros((160, 160), dtype=np.float32)) == (0.0, 0.0)
+
+
+def test_the_light_starts_where_the_chosen_evidence_puts_it():
+    photo = Target(photo_of_yarns_lit_from(200.0, size=128), np.ones((128, 128), dtype=np.float32))
+    falloff_only = settings("fit.geometry")
+    light, record = starting_light(photo, CAMERA, falloff_only)
+    assert record["chosen"] == "falloff" and "threads" not in record
+    light, record = starting_light(photo, CAMERA, settings("fit.geometry", light_start="threads"))
+    assert record["chosen"] == "threads"
+    assert abs((light.azimuth_deg - 200.0 + 180.0) % 360.0 - 180.0) < 20.0
+    assert light.polar_deg >= falloff_only.thread_light_polar_deg
+    unsure = settings("fit.geometry", light_start="threads", thread_light_strength=10.0)
+    assert starting_light(photo, CAMERA, unsure)[1]["chosen"] == "falloff"

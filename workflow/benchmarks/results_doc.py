@@ -346,6 +346,15 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/pooled_captures.py --set results/microscope/run results/microscope/field/samples.tsv "
                         "--set results/microscope_confirm/run results/microscope_confirm/field/samples.tsv "
                         "--each --name pooled_microscope"),
+        BenchmarkReport("The light's azimuth: the fit, the falloff and the threads", ("bench/light_direction.md",),
+                        f"{py}/light_direction.py"),
+        BenchmarkReport("Feature sets by capture, the design weave sets with the light placed by the threads",
+                        ("bench/exp_threads_2sets.md",),
+                        f"{py}/pooled_captures.py --set results/exp_threads/weaves results/weaves/field/samples.tsv "
+                        "--set results/exp_threads/weaves_confirm results/weaves_confirm/field/samples.tsv --name exp_threads_2sets"),
+        BenchmarkReport("Feature sets by capture, the design weave sets (default fit)", ("bench/base_2sets.md",),
+                        f"{py}/pooled_captures.py --set results/weaves/run results/weaves/field/samples.tsv "
+                        "--set results/weaves_confirm/run results/weaves_confirm/field/samples.tsv --each --name base_2sets"),
         BenchmarkReport("Thread periods on a fresh nine-class set (seed 20261207)", ("bench/field_set_confirm.md",),
                         f"{py}/field_set.py --field results/period_confirm/field --run results/period_confirm/run "
                         "--name field_set_confirm"),

@@ -1,7 +1,7 @@
 """Effects plan: which light transport each fit stage simulates, and why.
 
-The fit scene is one opaque cloth sheet lit by one point light. Its
-light can reach the camera after one bounce; more bounces only matter where
+The fit scene is one opaque cloth sheet lit by one light (a point, or a
+distant soft disc). Its light can reach the camera after one bounce; more bounces only matter where
 the fitted cloth faces itself (deep folds). Shadow rays only matter where the
 fitted surface can shadow itself from the light; elsewhere the planner picks
 ``direct_unshadowed`` (:mod:`.integrator`). Visibility gradients (projective
@@ -21,7 +21,7 @@ from scipy import ndimage
 from clothscope.core.config import FIT_STAGES
 from clothscope.core.mesh import grid_normals
 from clothscope.fit.integrator import NAME as UNSHADOWED
-from clothscope.fit.model import FitCamera, PointLight
+from clothscope.fit.model import FitCamera, FitLight
 
 
 @dataclass(frozen=True)
@@ -80,7 +80,7 @@ def plan_stage(stage: str, evidence: Evidence, full_effects: bool = False, full_
     moves_vertices = stage == "geometry"
     needs_visibility = moves_vertices and (evidence.outline_in_view or evidence.self_occlusion)
     needs_bounces = evidence.facing_folds
-    reasons = ["one opaque sheet and one point light: light reaches the camera after one bounce"]
+    reasons = ["one opaque sheet and one light: light reaches the camera after one bounce"]
     if needs_bounces:
         reasons = ["fitted folds face each other: inter-reflection needs 3 bounces"]
     if needs_visibility:
@@ -101,7 +101,7 @@ def plan_stage(stage: str, evidence: Evidence, full_effects: bool = False, full_
     return Plan(stage, "direct" if evidence.cast_shadows else UNSHADOWED, 1, False, tuple(reasons))
 
 
-def casts_shadows(grid: np.ndarray, light: PointLight, clearance: float = 1e-4) -> bool:
+def casts_shadows(grid: np.ndarray, light: FitLight, clearance: float = 1e-4) -> bool:
     """True when some vertex of the (n, n, 3) height-field grid cannot see ``light``.
 
     Marches from every vertex toward the light in steps of half a grid cell
@@ -130,7 +130,7 @@ def casts_shadows(grid: np.ndarray, light: PointLight, clearance: float = 1e-4) 
     return False
 
 
-def geometry_evidence(grid: np.ndarray, camera: FitCamera, light: PointLight | None = None,
+def geometry_evidence(grid: np.ndarray, camera: FitCamera, light: FitLight | None = None,
                       facing_cos: float = 0.5) -> Evidence:
     """Evidence from a fitted (n, n, 3) grid: self-occlusion, facing folds and cast shadows.
 

@@ -16,7 +16,7 @@ thread detail is averaged away and only the folds remain.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import ModuleType
 from typing import Any
 
@@ -31,11 +31,12 @@ from clothscope.fit.light import (
     lambert_falloff,
     light_from_latent,
     plane_points,
+    thread_light,
     tilted,
 )
 from clothscope.fit.loop import LoopSettings, optimise, render
 from clothscope.fit.material import apply_material, material_from_latents, material_latents
-from clothscope.fit.model import BSDF_KEYS, FitCamera, FitScene, Material, PointLight, build_scene, plane_grid
+from clothscope.fit.model import BSDF_KEYS, FitCamera, FitLight, FitScene, Material, build_scene, plane_grid
 from clothscope.fit.target import Target, at_resolution, image_loss
 from clothscope.fit.tilt import TiltEstimate, estimate_tilt
 
@@ -59,9 +60,32 @@ class GeometrySettings:
     pin_tilt: bool
     tilt_prior_deg: float
     fit_light: bool
+    light_start: str  # "falloff": the grid search alone; "threads": the threads' side when they show one
+    thread_light_strength: float  # the least strength of thread_light that overrides the falloff's azimuth
+    thread_light_polar_deg: float  # the least polar angle of a light the threads place
 
 
-def initial_base_color(target: Target, camera: FitCamera, light: PointLight) -> np.ndarray:
+def starting_light(photo: Target, camera: FitCamera, settings: GeometrySettings) -> tuple[FitLight, dict[str, Any]]:
+    """The light the stage starts from (level cloth) and the record of how it was found.
+
+    The falloff's grid search (:func:`estimate_light`) gives it; with ``light_start: threads``
+    and threads lit from one side (:func:`thread_light` at least ``thread_light_strength``), the
+    threads give its azimuth and its polar angle is at least ``thread_light_polar_deg``, and the
+    stage keeps that light instead of refining it.
+    """
+    light, residual = estimate_light(photo.image, photo.weight, camera)
+    record: dict[str, Any] = {"falloff": {"polar_deg": light.polar_deg, "azimuth_deg": light.azimuth_deg, "relative_residual": residual},
+                              "chosen": "falloff"}
+    if settings.light_start == "threads":
+        azimuth, strength = thread_light(photo.image, photo.weight)
+        record["threads"] = {"azimuth_deg": azimuth, "strength": strength}
+        if strength >= settings.thread_light_strength:
+            light = FitLight(max(light.polar_deg, settings.thread_light_polar_deg), azimuth, light.distance)
+            record["chosen"] = "threads"
+    return light, record
+
+
+def initial_base_color(target: Target, camera: FitCamera, light: FitLight) -> np.ndarray:
     """Lambertian albedo that explains the target's mean brightness under ``light``."""
     x, y = plane_points(camera, target.resolution)
     shade = light.intensity * lambert_falloff(light, x, y) / np.pi
@@ -77,11 +101,13 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
     ``sample_seed`` is the config's ``fit.sample_seed`` (which render samples the steps draw).
     """
     camera = FitCamera(settings.fov_deg)
-    light, light_residual = estimate_light(photo.image, photo.weight, camera)
+    light, light_start = starting_light(photo, camera, settings)
+    if light_start["chosen"] == "threads":  # the render would trade its polar angle for relief depth again (docs/design.md)
+        settings = replace(settings, fit_light=False)
     tilt = estimate_tilt(photo.image, photo.weight, camera, settings.tilt_prior_deg if settings.pin_tilt else 0.0)
     log.info("tilt from the texture's perspective: %.1f deg (slopes %+.3f, %+.3f)", tilt.degrees, tilt.slope_x, tilt.slope_y)
     light = tilted(light, tilt.slope_x, tilt.slope_y)
-    log.info("light: polar %.0f deg, azimuth %.0f deg (relative residual %.3f)", light.polar_deg, light.azimuth_deg, light_residual)
+    log.info("light: polar %.0f deg, azimuth %.0f deg (from the %s)", light.polar_deg, light.azimuth_deg, light_start["chosen"])
     target = at_resolution(photo, settings.resolution)
     material = Material(tuple(float(c) for c in initial_base_color(target, camera, light)),
                         settings.initial_specular, settings.initial_roughness)
@@ -107,7 +133,7 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
         plans.append(refined.as_record())
         warnings += second.warnings
         curve += [row | {"phase": "vertices-refine"} for row in second.curve]
-    record = {"light_residual": light_residual, "tilt": tilt.as_record(), "effects": plans, "evidence": evidence.__dict__,
+    record = {"light_residual": light_start["falloff"]["relative_residual"], "light_start": light_start, "tilt": tilt.as_record(), "effects": plans, "evidence": evidence.__dict__,
               "warnings": warnings, "stopped": loop.stopped, "final_loss": loop.best_loss,
               "settings": settings.__dict__, "sample_seed": sample_seed, "curve": curve}
     return fit, record

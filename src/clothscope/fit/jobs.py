@@ -23,13 +23,14 @@ from clothscope.core.runtime import mitsuba_for, runtime_metadata
 from clothscope.fit.colour import choose_colour_model
 from clothscope.fit.effects import geometry_evidence, plan_stage
 from clothscope.fit.geometry import GeometrySettings, fit_geometry
-from clothscope.fit.material import MaterialSettings, fit_material
-from clothscope.fit.model import PREVIEW_SAMPLER, FitScene, build_scene, shaded_texture
+from clothscope.fit.material import MaterialSettings, fit_material_and_light
+from clothscope.fit.model import PREVIEW_SAMPLER, FitScene, build_scene, shaded_texture, soft_light_map
 from clothscope.fit.normals import NormalSettings, fit_normals, height_to_normals_np, relief_prior
 from clothscope.fit.outputs import (
     ALBEDO_FILE,
     COMPARISON_FILE,
     HEIGHT_FILE,
+    LIGHT_FILE,
     LOSS_FILE,
     MATERIAL_FILE,
     MESH_FILE,
@@ -86,6 +87,8 @@ def _write_common(tmp: Path, mi: Any, fit: FitScene, photo: Target, curve: list[
     scene.shapes()[0].write_ply(str(tmp / MESH_FILE))
     if albedo is not None:
         write_exr(tmp / ALBEDO_FILE, albedo)
+    if fit.light.spread_deg > 0:
+        write_exr(tmp / LIGHT_FILE, soft_light_map(fit.light))
     write_text(tmp / SCENE_FILE, scene_xml(fit, MESH_FILE, normal_file, photo.resolution,
                                             albedo_file=None if albedo is None else ALBEDO_FILE))
     save_state(tmp, fit, record | {"runtime": runtime_metadata(mi)})
@@ -121,8 +124,9 @@ def material_job(prepared_dir: str, geometry_dir: str, out_dir: str, settings: M
     """``fit_material`` for one image (``sample_seed``: the config's ``fit.sample_seed``)."""
     def body(tmp: Path) -> dict[str, Any]:
         fit, photo, mi, plan = _continue_fit(geometry_dir, prepared_dir, "material", variant, threads, full_effects, log)
-        fit.material, loop = fit_material(mi, fit, at_resolution(photo, settings.resolution), plan, settings, log, sample_seed)
-        record = {"effects": [plan.as_record()], "warnings": loop.warnings, "stopped": loop.stopped,
+        fit.light, fit.material, loop, light_choice = fit_material_and_light(mi, fit, at_resolution(photo, settings.resolution), plan,
+                                                                            settings, log, sample_seed)
+        record = {"effects": [plan.as_record()], "warnings": loop.warnings, "stopped": loop.stopped, "light_choice": light_choice,
                   "final_loss": loop.best_loss, "settings": settings.__dict__, "sample_seed": sample_seed, "material": fit.material.as_dict()}
         write_json(tmp / MATERIAL_FILE, {"material": fit.material.as_dict(), "effects": [plan.as_record()],
                                            "warnings": loop.warnings})

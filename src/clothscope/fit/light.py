@@ -1,4 +1,4 @@
-"""Light direction from a photo's low-frequency shading.
+"""Light direction from a photo's low-frequency shading and from its threads.
 
 Real photos come with an unknown light. We model it as one point light at a
 fixed distance from the cloth centre and estimate its direction by matching
@@ -9,6 +9,13 @@ geometry stage turns that estimate with the cloth's tilt (:func:`tilted`) and
 then refines its direction along with the folds and the BSDF
 (:func:`apply_light`), where the full BSDF and the fitted folds replace the
 grid search's flat Lambertian plane.
+
+A close-up crop of a larger frame shows almost no falloff, so the grid search
+then reads vignetting or nothing and puts the light near the lens. The threads
+tell the light's side instead (:func:`thread_light`): a convex yarn lit from
+one side brightens slowly toward the light and darkens sharply past its crown,
+so the shading's gradients have a third moment pointing away from the light.
+A light at the lens lights both flanks alike and leaves that moment near zero.
 """
 from __future__ import annotations
 
@@ -21,7 +28,8 @@ from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
 from clothscope.core.imageio import luminance
-from clothscope.fit.model import FitCamera, PointLight, calibrated_intensity
+from clothscope.fit.model import FitCamera, FitLight, calibrated_intensity
+from clothscope.prepare.shading import shading
 
 #: the light is kept at least this cosine above the cloth's horizon while it is fitted
 MIN_COSINE = 0.1
@@ -34,7 +42,7 @@ def plane_points(camera: FitCamera, resolution: int) -> tuple[np.ndarray, np.nda
     return x, y
 
 
-def lambert_falloff(light: PointLight, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+def lambert_falloff(light: FitLight, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Irradiance cos(theta) / d^2 on the plane z = 0 (unit intensity)."""
     lx, ly, lz = light.position
     dx, dy = lx - x, ly - y
@@ -43,7 +51,7 @@ def lambert_falloff(light: PointLight, x: np.ndarray, y: np.ndarray) -> np.ndarr
 
 
 def estimate_light(image: np.ndarray, weight: np.ndarray, camera: FitCamera, distance: float = 3.0,
-                   polar_step: float = 4.0, azimuth_step: float = 10.0, max_polar: float = 64.0) -> tuple[PointLight, float]:
+                   polar_step: float = 4.0, azimuth_step: float = 10.0, max_polar: float = 64.0) -> tuple[FitLight, float]:
     """Best point-light direction for the smooth shading of ``image``.
 
     Parameters
@@ -60,11 +68,11 @@ def estimate_light(image: np.ndarray, weight: np.ndarray, camera: FitCamera, dis
     target = ndimage.zoom(luminance(image) * weight, zoom, order=1)
     mask = ndimage.zoom(weight.astype(float), zoom, order=1) > 0.5
     x, y = plane_points(camera, size)
-    best, best_residual = PointLight(0.0, 0.0, distance), np.inf
+    best, best_residual = FitLight(0.0, 0.0, distance), np.inf
     norm = float(np.sum(target[mask] ** 2)) + 1e-12
     for polar in np.arange(0.0, max_polar + 1e-9, polar_step):
         for azimuth in (np.arange(0.0, 360.0, azimuth_step) if polar > 0 else [0.0]):
-            light = PointLight(float(polar), float(azimuth), distance)
+            light = FitLight(float(polar), float(azimuth), distance)
             shade = lambert_falloff(light, x, y)[mask]
             scale = float(shade @ target[mask]) / float(shade @ shade)
             residual = float(np.sum((scale * shade - target[mask]) ** 2)) / norm
@@ -73,14 +81,49 @@ def estimate_light(image: np.ndarray, weight: np.ndarray, camera: FitCamera, dis
     return best, best_residual
 
 
-def light_along(direction: np.ndarray, distance: float, incidence_deg: float) -> PointLight:
-    """The :class:`PointLight` at ``distance`` along the unit ``direction``, with the given incidence."""
+#: pixels (working resolution) of the Gaussian derivative that :func:`thread_light` takes
+THREAD_GRADIENT_SIGMA = 0.7
+#: pixels of the blur whose shading (folds, falloff) :func:`thread_light` removes first, and of the border it leaves out
+THREAD_FOLD_SCALE = 16
+
+
+def thread_light(image: np.ndarray, weight: np.ndarray) -> tuple[float, float]:
+    """Azimuth (degrees, image +x = 0, +y up) of the side the threads are lit from, and the strength of that reading.
+
+    The strength is the length of ``-E[g |g|^2]`` for the shading's gradients ``g``
+    in units of their RMS (a dimensionless third moment): near 0 under a light at
+    the lens or on a photo without relief, larger the more one-sided the lighting.
+
+    Parameters
+    ----------
+    image : (H, W, 3) linear RGB working image.
+    weight : (H, W) pixel weights (0 for clipped pixels, which are left out with their neighbours).
+    """
+    field = shading(image)
+    field = field - ndimage.gaussian_filter(field, THREAD_FOLD_SCALE)
+    gy = -ndimage.gaussian_filter(field, THREAD_GRADIENT_SIGMA, order=(1, 0))  # rows run along -y
+    gx = ndimage.gaussian_filter(field, THREAD_GRADIENT_SIGMA, order=(0, 1))
+    keep = ndimage.binary_erosion(weight > 0, iterations=2)
+    m = THREAD_FOLD_SCALE
+    keep[:m], keep[-m:], keep[:, :m], keep[:, -m:] = False, False, False, False
+    gx, gy = gx[keep], gy[keep]
+    rms = float(np.sqrt(np.mean(gx**2 + gy**2))) if gx.size else 0.0
+    if rms <= 1e-9:
+        return 0.0, 0.0
+    gx, gy = gx / rms, gy / rms
+    squared = gx**2 + gy**2
+    moment = -np.array([np.mean(gx * squared), np.mean(gy * squared)])
+    return float(np.degrees(np.arctan2(moment[1], moment[0])) % 360.0), float(np.hypot(*moment))
+
+
+def light_along(direction: np.ndarray, distance: float, incidence_deg: float) -> FitLight:
+    """The :class:`FitLight` at ``distance`` along the unit ``direction``, with the given incidence."""
     polar = float(np.degrees(np.arccos(np.clip(direction[2], -1.0, 1.0))))
     azimuth = float(np.degrees(np.arctan2(direction[1], direction[0])) % 360.0)
-    return PointLight(polar, azimuth, distance, incidence_deg)
+    return FitLight(polar, azimuth, distance, incidence_deg)
 
 
-def tilted(light: PointLight, slope_x: float, slope_y: float) -> PointLight:
+def tilted(light: FitLight, slope_x: float, slope_y: float) -> FitLight:
     """``light`` turned with the cloth when the cloth tilts to the slopes ``(dz/dx, dz/dy) = (slope_x, slope_y)``.
 
     The light direction is estimated against a level plane; shading fixes only
@@ -96,7 +139,7 @@ def tilted(light: PointLight, slope_x: float, slope_y: float) -> PointLight:
 LIGHT_STEP = 0.25
 
 
-def light_frame(light: PointLight) -> np.ndarray:
+def light_frame(light: FitLight) -> np.ndarray:
     """Rows: the light's unit direction from the cloth centre and two unit tangents across it."""
     direction = np.array(light.position) / light.distance
     helper = np.array([0.0, 0.0, 1.0]) if abs(direction[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
@@ -117,7 +160,7 @@ def cloth_normal(slope_x: float, slope_y: float) -> np.ndarray:
     return normal / np.linalg.norm(normal)
 
 
-def apply_light(mi: ModuleType, params: Any, light: PointLight, latent: Any, normal: np.ndarray) -> None:
+def apply_light(mi: ModuleType, params: Any, light: FitLight, latent: Any, normal: np.ndarray) -> None:
     """Write the light turned by ``latent`` into the scene, its intensity following the exposure convention."""
     def normalise(d: list[Any]) -> Any:
         return dr.normalize(mi.Vector3f(*d))
@@ -129,8 +172,8 @@ def apply_light(mi: ModuleType, params: Any, light: PointLight, latent: Any, nor
     params["light.intensity.value"] = mi.Color3f(calibrated_intensity(light.distance, cosine))
 
 
-def light_from_latent(light: PointLight, latent: np.ndarray, normal: np.ndarray) -> PointLight:
-    """The :class:`PointLight` that :func:`apply_light` renders for ``latent``."""
+def light_from_latent(light: FitLight, latent: np.ndarray, normal: np.ndarray) -> FitLight:
+    """The :class:`FitLight` that :func:`apply_light` renders for ``latent``."""
     direction = turned_direction(light_frame(light), np.asarray(latent, dtype=np.float64), lambda d: np.array(d) / np.linalg.norm(d))
     incidence = float(np.degrees(np.arccos(max(float(direction @ normal), MIN_COSINE))))
     return light_along(direction, light.distance, incidence)

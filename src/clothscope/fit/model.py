@@ -1,12 +1,15 @@
-"""The scene every fit stage renders: a camera, one point light and a plane mesh.
+"""The scene every fit stage renders: a camera, one light and a plane mesh.
 
 Camera model: a pinhole camera at distance ``CAMERA_DISTANCE`` looking straight
 down at the cloth with a fixed field of view (a close-up photo). The cloth is a
 64 x 64 vertex plane spanning the view at z = 0 plus a margin, so its outline
-is never in view. Light model: one point light whose direction is estimated
-from the photo's low-frequency shading (:mod:`.light`) and whose intensity
-follows the calibration convention "a white Lambertian patch at the centre
-reads 0.85"; base colours are reported relative to that exposure. With a
+is never in view. Light model: one light whose direction is estimated from the
+photo's low-frequency shading (:mod:`.light`) and whose brightness follows the
+calibration convention "a white Lambertian patch at the centre reads 0.85";
+base colours are reported relative to that exposure. The light is a point
+light, or (when the material stage finds it re-renders the photo better) a
+distant soft light: a uniform disc of ``spread_deg`` angular radius in an
+environment map (:func:`soft_light_map`), like a window or a softbox. With a
 point light and one opaque sheet, the position of a sample inside its pixel
 is a one-bounce render's only random dimension, so a sampler that stratifies it
 (``multijitter``) leaves far less noise per sample than independent sampling
@@ -61,18 +64,30 @@ def calibrated_intensity(distance: float, cosine: Any) -> Any:
     return WHITE_PATCH_READING * np.pi * distance**2 / cosine
 
 
+#: side of the soft light's environment map (latitude-longitude, twice as wide): 1.4 degrees per pixel
+SOFT_LIGHT_MAP_HEIGHT = 128
+
+
 @dataclass(frozen=True)
-class PointLight:
-    """A point light given by its direction from the cloth centre and distance.
+class FitLight:
+    """The fit's light, given by its direction from the cloth centre and distance.
 
     ``incidence_deg`` is its angle from the cloth's mean normal, which sets the
     exposure convention; None means the cloth is level and it equals the polar angle.
+    ``spread_deg`` 0 makes it a point light at ``position``; above 0, a distant
+    soft light: a uniform disc of that angular radius around the same direction.
     """
 
     polar_deg: float
     azimuth_deg: float
     distance: float = 3.0
     incidence_deg: float | None = None
+    spread_deg: float = 0.0
+
+    @property
+    def direction(self) -> np.ndarray:
+        """Unit vector from the cloth centre toward the light."""
+        return np.asarray(self.position) / self.distance
 
     @property
     def position(self) -> tuple[float, float, float]:
@@ -84,10 +99,52 @@ class PointLight:
         )
 
     @property
+    def incidence_cosine(self) -> float:
+        """Cosine of the light's angle from the cloth's mean normal."""
+        return float(np.cos(np.deg2rad(self.polar_deg if self.incidence_deg is None else self.incidence_deg)))
+
+    @property
     def intensity(self) -> float:
-        """Radiant intensity under the white-patch calibration convention."""
-        incidence = self.polar_deg if self.incidence_deg is None else self.incidence_deg
-        return float(calibrated_intensity(self.distance, np.cos(np.deg2rad(incidence))))
+        """Radiant intensity of the point light under the white-patch calibration convention."""
+        return float(calibrated_intensity(self.distance, self.incidence_cosine))
+
+
+def envmap_directions(height: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit directions (H, 2H, 3) of a latitude-longitude map's pixel centres in Mitsuba's ``envmap`` convention, and their solid angles (H, 2H).
+
+    Mitsuba looks a direction ``d`` up at ``u = atan2(d.x, -d.z) / 2 pi`` and ``v = acos(d.y) / pi``.
+    """
+    v = (np.arange(height) + 0.5) / height * np.pi
+    u = (np.arange(2 * height) + 0.5) / (2 * height) * 2 * np.pi
+    theta, phi = np.meshgrid(v, u, indexing="ij")
+    directions = np.stack([np.sin(theta) * np.sin(phi), np.cos(theta), -np.sin(theta) * np.cos(phi)], axis=-1)
+    solid_angle = np.sin(theta) * (np.pi / height) * (np.pi / height)
+    return directions, solid_angle
+
+
+def soft_light_map(light: FitLight, height: int = SOFT_LIGHT_MAP_HEIGHT) -> np.ndarray:
+    """(H, 2H, 3) radiance of ``light``'s soft disc, scaled so a white Lambertian patch at the centre reads ``WHITE_PATCH_READING``.
+
+    The disc's edge is antialiased over one pixel. A disc above the cloth's horizon
+    gives the patch ``cos(incidence)`` times the irradiance it gives a patch facing
+    it, which the map's own sum sets (so the calibration holds at any resolution).
+    """
+    if not 0.0 < light.spread_deg < 90.0:
+        raise ValueError(f"a soft light needs a spread between 0 and 90 degrees, got {light.spread_deg}")
+    directions, solid_angle = envmap_directions(height)
+    cosine = directions @ light.direction
+    angle = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+    coverage = np.clip((light.spread_deg - angle) / (180.0 / height) + 0.5, 0.0, 1.0)
+    facing_irradiance = float(np.sum(coverage * np.maximum(cosine, 0.0) * solid_angle))
+    radiance = coverage * WHITE_PATCH_READING * np.pi / (facing_irradiance * light.incidence_cosine)
+    return np.repeat(radiance[..., None], 3, axis=2).astype(np.float32)
+
+
+def light_dict(mi: ModuleType, light: FitLight) -> dict[str, Any]:
+    """The Mitsuba emitter of ``light``: a point light, or an environment map holding its soft disc."""
+    if light.spread_deg > 0:
+        return {"type": "envmap", "bitmap": mi.Bitmap(soft_light_map(light))}
+    return {"type": "point", "position": list(light.position), "intensity": {"type": "rgb", "value": light.intensity}}
 
 
 @dataclass
@@ -107,7 +164,7 @@ class FitScene:
     """Everything needed to rebuild the fit scene; what the stages pass on."""
 
     camera: FitCamera
-    light: PointLight
+    light: FitLight
     grid: np.ndarray  # (n, n, 3) vertex positions
     margin: float
     material: Material = field(default_factory=Material)
@@ -200,8 +257,7 @@ def build_scene(mi: ModuleType, fit: FitScene, resolution: int, integrator: dict
                      "rfilter": {"type": "box"}, "sample_border": sample_border},
             "sampler": {"type": sampler, "sample_count": 4},
         },
-        "light": {"type": "point", "position": list(fit.light.position),
-                  "intensity": {"type": "rgb", "value": fit.light.intensity}},
+        "light": light_dict(mi, fit.light),
         "cloth": mesh,
     })
 

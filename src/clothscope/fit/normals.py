@@ -82,9 +82,9 @@ from clothscope.fit.loop import LoopSettings, optimise, render, sigmoid
 from clothscope.fit.material import apply_material, material_from_latents, material_latents
 from clothscope.fit.model import (
     BSDF_KEYS,
+    FitLight,
     FitScene,
     Material,
-    PointLight,
     build_scene,
     flat_normal_texture,
     shaded_texture,
@@ -235,7 +235,7 @@ def albedo_texture(mi: ModuleType, color_latent: Any, size: int, shade_latent: A
     return mi.TensorXf(dr.ravel(mi.Color3f(*color)), shape=(size, size, 3))  # a shade, cavity or layout makes it per texel
 
 
-def relief_prior(settings: NormalSettings, light: PointLight) -> tuple[NormalSettings, dict[str, Any]]:
+def relief_prior(settings: NormalSettings, light: FitLight) -> tuple[NormalSettings, dict[str, Any]]:
     """The settings the stage fits with under ``light``, and the record of the choice.
 
     A light within ``settings.near_camera_deg`` of the camera (on the +z axis, so the

@@ -17,7 +17,7 @@ import numpy as np
 
 from clothscope.core.atomic import write_json, write_text, write_with
 from clothscope.core.imageio import linear_to_srgb, write_png
-from clothscope.fit.model import PREVIEW_SAMPLER, FitCamera, FitScene, Material, PointLight
+from clothscope.fit.model import PREVIEW_SAMPLER, FitCamera, FitLight, FitScene, Material
 from clothscope.fit.target import SkipStage, Target, box_downsample
 
 #: The stage's record (status, settings, fitted scene) and its mesh grid (read back by :func:`load_state`).
@@ -37,6 +37,8 @@ HEIGHT_FILE = "height.exr"
 NORMAL_PNG_FILE = "normal.png"
 #: The fitted shade texture (three equal channels), when the colour model fits one.
 SHADE_FILE = "shade.exr"
+#: The soft light's environment map (linear RGB, latitude-longitude), which ``scene.xml`` reads when the fit chose one.
+LIGHT_FILE = "light.exr"
 #: The fitted base-colour texture (linear RGB: colour times shade times dye layout), which ``scene.xml`` reads.
 ALBEDO_FILE = "albedo.exr"
 
@@ -77,8 +79,8 @@ def load_state(stage_dir: str | os.PathLike[str]) -> tuple[FitScene, dict[str, A
     scene = record["scene"]
     fit = FitScene(
         camera=FitCamera(scene["camera"]["fov_deg"], scene["camera"]["distance"]),
-        light=PointLight(scene["light"]["polar_deg"], scene["light"]["azimuth_deg"], scene["light"]["distance"],
-                         scene["light"].get("incidence_deg")),
+        light=FitLight(scene["light"]["polar_deg"], scene["light"]["azimuth_deg"], scene["light"]["distance"],
+                         scene["light"].get("incidence_deg"), scene["light"].get("spread_deg", 0.0)),
         grid=np.load(stage_dir / GRID_FILE).astype(np.float64),
         margin=scene["margin"],
         material=Material(tuple(scene["material"]["base_color"]), scene["material"]["specular"], scene["material"]["roughness"]),
@@ -100,6 +102,9 @@ def scene_xml(fit: FitScene, mesh_file: str, normal_file: str | None, resolution
         f'<bsdf type="normalmap"><texture name="normalmap" type="bitmap"><string name="filename" value="{normal_file}"/>'
         f'<boolean name="raw" value="true"/></texture>{principled}</bsdf>')
     px, py, pz = light.position
+    emitter = (f'<emitter type="envmap"><string name="filename" value="{LIGHT_FILE}"/></emitter>' if light.spread_deg > 0 else
+               f'<emitter type="point"><point name="position" x="{px:.6g}" y="{py:.6g}" z="{pz:.6g}"/>'
+               f'<rgb name="intensity" value="{light.intensity:.6g}"/></emitter>')
     return f"""<scene version="3.0.0">
     <!-- re-renders the clothscope fit: run `mitsuba scene.xml` in this folder -->
     <integrator type="direct"/>
@@ -110,10 +115,7 @@ def scene_xml(fit: FitScene, mesh_file: str, normal_file: str | None, resolution
         <film type="hdrfilm"><integer name="width" value="{resolution}"/><integer name="height" value="{resolution}"/>
             <rfilter type="box"/></film>
     </sensor>
-    <emitter type="point">
-        <point name="position" x="{px:.6g}" y="{py:.6g}" z="{pz:.6g}"/>
-        <rgb name="intensity" value="{light.intensity:.6g}"/>
-    </emitter>
+    {emitter}
     <shape type="ply">
         <string name="filename" value="{mesh_file}"/>
         {bsdf}
