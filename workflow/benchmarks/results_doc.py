@@ -348,10 +348,14 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "--each --name pooled_microscope"),
         BenchmarkReport("The light's azimuth: the fit, the falloff and the threads", ("bench/light_direction.md",),
                         f"{py}/light_direction.py"),
+        BenchmarkReport("The light's azimuth on sets no choice looked at", ("bench/light_direction_confirm.md",),
+                        f"{py}/light_direction.py --set results/weaves_fresh/run results/weaves_fresh/field/samples.tsv "
+                        "--set results/weaves_period/run results/weaves_period/field/samples.tsv "
+                        "--set results/confirm_1126/run results/confirm_1126/holdout/samples.tsv --name light_direction_confirm"),
         BenchmarkReport("Feature sets by capture, the design weave sets with the light placed by the threads",
                         ("bench/exp_threads_2sets.md",),
                         f"{py}/pooled_captures.py --set results/exp_threads/weaves results/weaves/field/samples.tsv "
-                        "--set results/exp_threads/weaves_confirm results/weaves_confirm/field/samples.tsv --name exp_threads_2sets"),
+                        "--set results/exp_threads/weaves_confirm results/weaves_confirm/field/samples.tsv --each --name exp_threads_2sets"),
         BenchmarkReport("Feature sets by capture, the design weave sets (default fit)", ("bench/base_2sets.md",),
                         f"{py}/pooled_captures.py --set results/weaves/run results/weaves/field/samples.tsv "
                         "--set results/weaves_confirm/run results/weaves_confirm/field/samples.tsv --each --name base_2sets"),

@@ -133,7 +133,8 @@ def fit_geometry(mi: ModuleType, photo: Target, settings: GeometrySettings, full
         plans.append(refined.as_record())
         warnings += second.warnings
         curve += [row | {"phase": "vertices-refine"} for row in second.curve]
-    record = {"light_residual": light_start["falloff"]["relative_residual"], "light_start": light_start, "tilt": tilt.as_record(), "effects": plans, "evidence": evidence.__dict__,
+    record = {"light_residual": light_start["falloff"]["relative_residual"], "light_start": light_start,
+              "tilt": tilt.as_record(), "effects": plans, "evidence": evidence.__dict__,
               "warnings": warnings, "stopped": loop.stopped, "final_loss": loop.best_loss,
               "settings": settings.__dict__, "sample_seed": sample_seed, "curve": curve}
     return fit, record

@@ -42,6 +42,7 @@ class MaterialSettings:
     soft_light_deg: float  # angular radius of the soft light tried beside the point light; 0: point light only
     soft_light_min_gain: float  # relative loss drop the soft light must bring to be kept
 
+
 #: samples per pixel of the renders that compare the lights (the stage's own renders are noisier)
 CHOICE_SPP = 32
 
