@@ -362,6 +362,11 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "--set results/exp_threads/weaves_confirm results/weaves_confirm/field/samples.tsv "
                         "--set results/exp_threads/weaves_fresh results/weaves_fresh/field/samples.tsv "
                         "--set results/exp_threads/weaves_period results/weaves_period/field/samples.tsv --name exp_threads_4sets"),
+        BenchmarkReport("Feature sets by capture, the design weave sets with the threads' light at strength 0.05",
+                        ("bench/exp_threadsB_2sets.md",),
+                        f"{py}/pooled_captures.py --set results/exp_threadsB/weaves results/weaves/field/samples.tsv "
+                        "--set results/exp_threadsB/weaves_confirm results/weaves_confirm/field/samples.tsv --each "
+                        "--name exp_threadsB_2sets"),
         BenchmarkReport("Feature sets by capture, the design weave sets (default fit)", ("bench/base_2sets.md",),
                         f"{py}/pooled_captures.py --set results/weaves/run results/weaves/field/samples.tsv "
                         "--set results/weaves_confirm/run results/weaves_confirm/field/samples.tsv --each --name base_2sets"),
