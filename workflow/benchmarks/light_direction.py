@@ -57,11 +57,11 @@ def image_rows(run: Path, sheet: Path) -> list[dict]:
         if not truth_paths(path)["json"].is_file() or not state_path.is_file():
             continue
         state = json.loads(state_path.read_text(encoding="utf-8"))
+        if state.get("status") != "fitted":
+            continue
         try:
             photo = load_prepared(run / "prepared" / sample.image_id)
         except SkipStage:
-            continue
-        if state.get("status") != "fitted":
             continue
         capture, polar, azimuth = true_light(path)
         falloff, _ = estimate_light(photo.image, photo.weight, FitCamera())

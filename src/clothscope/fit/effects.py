@@ -1,8 +1,8 @@
 """Effects plan: which light transport each fit stage simulates, and why.
 
 The fit scene is one opaque cloth sheet lit by one light (a point, or a
-distant soft disc). Its light can reach the camera after one bounce; more bounces only matter where
-the fitted cloth faces itself (deep folds). Shadow rays only matter where the
+distant soft disc). Its light can reach the camera after one bounce; more
+bounces only matter where the fitted cloth faces itself (deep folds). Shadow rays only matter where the
 fitted surface can shadow itself from the light; elsewhere the planner picks
 ``direct_unshadowed`` (:mod:`.integrator`). Visibility gradients (projective
 integrators) only matter where vertices move and an outline or

@@ -132,7 +132,7 @@ def tilted(light: FitLight, slope_x: float, slope_y: float) -> FitLight:
     """
     turn, _ = Rotation.align_vectors([cloth_normal(slope_x, slope_y)], [[0.0, 0.0, 1.0]])
     incidence = light.polar_deg if light.incidence_deg is None else light.incidence_deg
-    return light_along(turn.apply(np.array(light.position) / light.distance), light.distance, incidence)
+    return light_along(turn.apply(light.direction), light.distance, incidence)
 
 
 #: radians of light-direction change per unit of its latent (keeps Adam's first steps to a few degrees)
@@ -141,7 +141,7 @@ LIGHT_STEP = 0.25
 
 def light_frame(light: FitLight) -> np.ndarray:
     """Rows: the light's unit direction from the cloth centre and two unit tangents across it."""
-    direction = np.array(light.position) / light.distance
+    direction = light.direction
     helper = np.array([0.0, 0.0, 1.0]) if abs(direction[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
     first = np.cross(direction, helper)
     first /= np.linalg.norm(first)

@@ -10,6 +10,7 @@ import csv
 import io
 import json
 import os
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,8 @@ from clothscope.core.imageio import linear_to_srgb, write_png
 from clothscope.fit.model import PREVIEW_SAMPLER, FitCamera, FitLight, FitScene, Material
 from clothscope.fit.target import SkipStage, Target, box_downsample
 
+#: The :class:`FitLight` fields a state's ``scene.light`` holds (older records lack the newer ones, which keep their defaults).
+LIGHT_FIELDS = frozenset(field.name for field in fields(FitLight))
 #: The stage's record (status, settings, fitted scene) and its mesh grid (read back by :func:`load_state`).
 STATE_FILE = "state.json"
 GRID_FILE = "grid.npy"
@@ -79,8 +82,7 @@ def load_state(stage_dir: str | os.PathLike[str]) -> tuple[FitScene, dict[str, A
     scene = record["scene"]
     fit = FitScene(
         camera=FitCamera(scene["camera"]["fov_deg"], scene["camera"]["distance"]),
-        light=FitLight(scene["light"]["polar_deg"], scene["light"]["azimuth_deg"], scene["light"]["distance"],
-                         scene["light"].get("incidence_deg"), scene["light"].get("spread_deg", 0.0)),
+        light=FitLight(**{key: value for key, value in scene["light"].items() if key in LIGHT_FIELDS}),
         grid=np.load(stage_dir / GRID_FILE).astype(np.float64),
         margin=scene["margin"],
         material=Material(tuple(scene["material"]["base_color"]), scene["material"]["specular"], scene["material"]["roughness"]),
