@@ -23,10 +23,13 @@ from clothscope.features.structure import (
     LBP_COLUMNS,
     LBP_SCALES,
     STRUCTURE_COLUMNS,
+    WEAVE_COLUMNS,
     StructureSettings,
+    autocorrelation,
     lbp_baseline,
     structure_features,
     texture_columns,
+    weave_rings,
 )
 
 SETTINGS = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3, lbp_scale="pixels")
@@ -99,7 +102,8 @@ def test_lbp_at_the_canonical_period_survives_a_zoom_that_moves_the_pixel_lbp(zo
     canonical = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3, lbp_scale="canonical")
     at_pixels = [texture_columns(cloth(p), SETTINGS) for p in (9.0, 9.0 * zoom)]
     at_period = [texture_columns(cloth(p), canonical) for p in (9.0, 9.0 * zoom)]
-    assert at_pixels[0] == structure_features(cloth(9.0), SETTINGS)[0] | lbp_baseline(cloth(9.0))
+    features, diagnostics = structure_features(cloth(9.0), SETTINGS)
+    assert at_pixels[0] == features | weave_rings(diagnostics["canonical"]) | lbp_baseline(cloth(9.0))
     assert {k: at_period[0][k] for k in STRUCTURE_COLUMNS} == {k: at_pixels[0][k] for k in STRUCTURE_COLUMNS}
     assert lbp_distance(*at_period) < 0.03
     assert lbp_distance(*at_period) < 0.5 * lbp_distance(*at_pixels)
@@ -180,6 +184,44 @@ def test_lbp_baseline_is_rotation_invariant_for_a_quarter_turn():
     field = weave(twill=True) + ndimage.gaussian_filter(np.random.default_rng(0).normal(size=(256, 256)), 1)
     a, b = lbp_baseline(field), lbp_baseline(np.rot90(field))
     assert max(abs(a[k] - b[k]) for k in a) < 0.01
+
+
+def rings_of(field: np.ndarray) -> dict[str, float]:
+    return {name: texture_columns(field, SETTINGS)[name] for name in WEAVE_COLUMNS}
+
+
+def test_autocorrelation_is_one_at_no_lag_and_follows_a_cosine():
+    stripes = np.cos(2 * np.pi * np.arange(64) / 8.0)[None, :].repeat(64, axis=0)
+    acf = autocorrelation(stripes)
+    assert acf[64, 64] == pytest.approx(1.0)
+    assert acf[64, 64 + 4] == pytest.approx(-1.0, abs=0.05) and acf[64, 64 + 8] == pytest.approx(1.0, abs=0.05)
+    assert acf[64 + 5, 64] == pytest.approx(1.0, abs=1e-9)  # along the stripes nothing changes
+    assert np.all(autocorrelation(np.full((16, 16), 2.0)) == 0.0)
+
+
+def test_weave_rings_read_stripes_and_noise_apart():
+    striped = rings_of(np.cos(2 * np.pi * np.arange(256) / 10.0)[None, :].repeat(256, axis=0))
+    noisy = rings_of(np.random.default_rng(5).normal(size=(256, 256)))
+    assert all(striped[f"w_max_{k}"] > 0.9 for k in range(1, 8))  # along the stripes every ring finds them again
+    assert striped["w_min_1"] < -0.8  # half a period across them, the opposite phase
+    assert all(abs(noisy[f"w_max_{k}"]) < 0.35 for k in range(2, 8))
+
+
+@pytest.mark.parametrize("angle", [30.0, 60.0])
+def test_weave_rings_do_not_turn_with_the_cloth(angle):
+    base, turned = rings_of(cloth(9.0)), rings_of(np.asarray(ndimage.rotate(cloth(9.0), angle, reshape=False, mode="reflect")))
+    assert np.median([abs(turned[name] - base[name]) for name in WEAVE_COLUMNS]) < 0.05
+
+
+@pytest.mark.parametrize("zoom", [0.67, 1.5])
+def test_weave_rings_are_taken_in_thread_periods(zoom):
+    base, zoomed = rings_of(cloth(9.0)), rings_of(cloth(9.0 * zoom))
+    assert np.median([abs(zoomed[name] - base[name]) for name in WEAVE_COLUMNS]) < 0.05
+
+
+def test_weave_rings_of_a_flat_field_are_finite_zeros():
+    values = rings_of(np.full((128, 128), 0.3))
+    assert list(values) == list(WEAVE_COLUMNS) and all(v == 0.0 for v in values.values())
 
 
 # --------------------------------------------------------------------------- the feature-set report
@@ -268,6 +310,17 @@ def test_group_columns():
     assert group_columns("paper", columns) == ["roughness", "specular_norm", "r_1", "z_1", "n_peaks", "x_angle_deg"]
     assert group_columns("structure_brdf", columns) == ["roughness", "specular_norm", *STRUCTURE_COLUMNS]
     assert group_columns("lbp", columns) == list(LBP_COLUMNS)
+    assert group_columns("structure", [*columns, *WEAVE_COLUMNS]) == [*STRUCTURE_COLUMNS, *WEAVE_COLUMNS]
+
+
+def test_only_the_ring_sources_sets_take_the_weave_rings():
+    from clothscope.classify.feature_sets import RING_SOURCES, source_columns
+
+    own = [*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *LBP_COLUMNS]
+    columns = [f"{source}.{c}" for source in ("fitted", "photo") for c in own]
+    for source in ("fitted", "photo"):
+        rings = [c for c in source_columns(columns, source, "texture") if c.split(".", 1)[1] in WEAVE_COLUMNS]
+        assert len(rings) == (len(WEAVE_COLUMNS) if source in RING_SOURCES else 0), source
     with pytest.raises(ValueError, match="unknown"):
         group_columns("colour", columns)
 

@@ -77,14 +77,16 @@ def workflow_runs(results: Path) -> list[Run]:
              f"--config samples={r}/field/samples.tsv results={r}/field/run")
     albedo = (".venv/bin/snakemake --cores 2 --configfile config/config.yaml config/overlays/colour_texture.yaml "
               f"--config results={r}/exp_albedo")
-    confirm = (".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/confirm_1126.yaml"
-               f" && .venv/bin/snakemake --cores 2 --config samples={r}/confirm_1126/holdout/samples.tsv "
-               f"results={r}/confirm_1126/run")
-    weaves, fresh, period, microscope, microscope_confirm = (
+    confirm, confirm_1132 = (
+        f".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
+        f" && .venv/bin/snakemake --cores 2 --config samples={r}/{overlay}/holdout/samples.tsv results={r}/{overlay}/run"
+        for overlay in ("confirm_1126", "holdout_1132"))
+    weaves, fresh, period, microscope, microscope_confirm, weaves_1131, microscope_1130 = (
         f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
         for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh"), ("weaves_period", "weaves_period"),
-                                ("microscope", "microscope"), ("microscope_confirm", "microscope_confirm")))
+                                ("microscope", "microscope"), ("microscope_confirm", "microscope_confirm"),
+                                ("weaves_1131", "weaves_1131"), ("microscope_1130", "microscope_1130")))
     default_sheet = ROOT / "config" / "samples.tsv"
     return [
         Run("design", results, default_sheet, design),
@@ -99,6 +101,12 @@ def workflow_runs(results: Path) -> list[Run]:
             microscope),
         Run("microscope-like weaves, second", results / "microscope_confirm" / "run",
             results / "microscope_confirm" / "field" / "samples.tsv", microscope_confirm),
+        Run("held-out 1132", results / "holdout_1132" / "run", results / "holdout_1132" / "holdout" / "samples.tsv",
+            confirm_1132),
+        Run("three weaves, fifth", results / "weaves_1131" / "run", results / "weaves_1131" / "field" / "samples.tsv",
+            weaves_1131),
+        Run("microscope-like weaves, third", results / "microscope_1130" / "run",
+            results / "microscope_1130" / "field" / "samples.tsv", microscope_1130),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -402,6 +410,13 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
+        BenchmarkReport("The weave rings on the sets that chose and confirmed them", ("bench/weave_rings.md",),
+                        f"{py}/weave_rings.py results/microscope/run results/weaves/run results/weaves_confirm/run "
+                        "results/microscope_confirm/run results/weaves_fresh/run results/weaves_period/run "
+                        "results/confirm_1126/run results"),
+        BenchmarkReport("The weave rings on three fresh sets", ("bench/weave_rings_fresh.md",),
+                        f"{py}/weave_rings.py results/microscope_1130/run results/weaves_1131/run results/holdout_1132/run "
+                        "--name weave_rings_fresh"),
         BenchmarkReport("Tiles on the three-weave set of seed 20261203", ("bench/tiles_gain_weaves.md",),
                         f"{py}/tiles_gain.py results/weaves/run --name tiles_gain_weaves"),
         BenchmarkReport("Tiles on the fresh three-weave set (seed 20261226)", ("bench/tiles_gain_weaves_fresh.md",),

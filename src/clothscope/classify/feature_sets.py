@@ -20,7 +20,7 @@ from scipy.stats import binomtest
 from clothscope.classify.loocv import loocv
 from clothscope.core.atomic import write_text
 from clothscope.features.sources import STATUS_OK
-from clothscope.features.structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS, TILE_FEATURES
+from clothscope.features.structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS, TILE_FEATURES, WEAVE_COLUMNS
 
 #: Column groups of a feature table.
 BRDF_COLUMNS = ("roughness", "specular_norm")
@@ -29,6 +29,9 @@ AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf",
 #: The photo's own column sets beside a fitted or true classifier (``photo_structure`` is named above them):
 #: its radial profile, the paper's features, LBP, and structure with LBP (the photo's BRDF columns are zero, so dropped).
 PHOTO_GROUPS = {"photo_profile": "profile", "photo_paper": "paper", "photo_lbp": "lbp", "photo_texture": "texture"}
+#: Sources whose structure descriptor takes its weave rings ``w_*`` into every set that holds it (docs/design.md,
+#: "The weave rings"); the other sources' tables hold the rings too, and their sets leave them out.
+RING_SOURCES = ("photo",)
 #: Provenance columns a joined table keeps from its first source.
 JOINED_PROVENANCE = ("image_id", "fabric_class", "status", "reason", "normal_source", "mitsuba_variant", "config_hash")
 
@@ -37,7 +40,7 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
     """The columns of one group present in a table.
 
     ``paper``: roughness, specular_norm, ``r_*``, ``z_*``, ``n_peaks`` and any
-    ``x_*`` extras; ``structure``: ``s_*``; ``brdf``: roughness and
+    ``x_*`` extras; ``structure``: ``s_*`` and the weave rings ``w_*``; ``brdf``: roughness and
     specular_norm; ``structure_brdf``: both; ``profile``: the radial
     profile ``s_prof_*``; ``profile_brdf``: it and the BRDF; ``lbp``: the LBP
     baseline; ``texture``: structure and LBP; ``texture_brdf``: with the BRDF; ``shade``: ``a_*``,
@@ -48,20 +51,26 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
     if group == "paper":
         return [c for c in names if c in ("roughness", "specular_norm", "n_peaks") or c.startswith(("r_", "z_", "x_"))]
     profile = tuple(c for c in STRUCTURE_COLUMNS if c.startswith("s_prof_"))
-    wanted = {"structure": STRUCTURE_COLUMNS, "brdf": BRDF_COLUMNS, "lbp": LBP_COLUMNS,
-              "structure_brdf": STRUCTURE_COLUMNS + BRDF_COLUMNS, "profile": profile, "profile_brdf": profile + BRDF_COLUMNS,
-              "texture": STRUCTURE_COLUMNS + LBP_COLUMNS,
-              "texture_brdf": STRUCTURE_COLUMNS + LBP_COLUMNS + BRDF_COLUMNS, "shade": SHADE_COLUMNS,
-              "texture_shade_brdf": STRUCTURE_COLUMNS + LBP_COLUMNS + SHADE_COLUMNS + BRDF_COLUMNS}.get(group)
+    structure = STRUCTURE_COLUMNS + WEAVE_COLUMNS
+    wanted = {"structure": structure, "brdf": BRDF_COLUMNS, "lbp": LBP_COLUMNS,
+              "structure_brdf": structure + BRDF_COLUMNS, "profile": profile, "profile_brdf": profile + BRDF_COLUMNS,
+              "texture": structure + LBP_COLUMNS,
+              "texture_brdf": structure + LBP_COLUMNS + BRDF_COLUMNS, "shade": SHADE_COLUMNS,
+              "texture_shade_brdf": structure + LBP_COLUMNS + SHADE_COLUMNS + BRDF_COLUMNS}.get(group)
     if wanted is None:
         raise ValueError(f"unknown feature group {group!r}")
     return [c for c in names if c in wanted]
 
 
 def source_columns(columns: list[str] | pd.Index, source: str, group: str) -> list[str]:
-    """A group's columns of one source in a joined table (``<source>.<column>``); ``auto``: every AUTO_GROUPS column."""
+    """A group's columns of one source in a joined table (``<source>.<column>``); ``auto``: every AUTO_GROUPS column.
+
+    The weave rings ``w_*`` are left out for a source not in :data:`RING_SOURCES`.
+    """
     prefix = f"{source}."
     own = [c[len(prefix):] for c in columns if c.startswith(prefix)]
+    if source not in RING_SOURCES:
+        own = [c for c in own if c not in WEAVE_COLUMNS]
     groups = AUTO_GROUPS if group == "auto" else (group,)
     return [prefix + c for c in dict.fromkeys(c for g in groups for c in group_columns(g, own))]
 

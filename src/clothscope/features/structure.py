@@ -36,6 +36,14 @@ the threads form, in terms that are invariant by construction:
     (scikit-image, 8 neighbours at radius 2) after resampling the field so the
     fundamental period is ``CANONICAL_PERIOD`` pixels.
 
+* **weave rings** (:func:`weave_rings`, ``w_*``): the normalised
+  autocorrelation of that canonical field on circles of
+  :data:`RING_PERIODS` thread periods, each summed up by angle-free numbers
+  (largest, smallest and mean correlation on the circle, magnitudes of its
+  second and fourth angular harmonics). A weave repeats after a few threads
+  (a plain weave after two, a twill after three or four along a diagonal, a
+  satin after five), which the LBP's quarter-period radius cannot see.
+
 :func:`lbp_baseline` is the plain texture baseline of the feature-set report:
 uniform LBP histograms at 8/1, 16/2 and 24/3 neighbours/radius on the field as
 it is (no scale normalisation), or, with ``lbp_scale: canonical``, on the
@@ -64,6 +72,12 @@ MIN_FIELD = 32
 #: spectrum has fallen by ten orders of magnitude, the Hann window's leakage along the axes stands above the
 #: ring median and would read as peaks (workflow/benchmarks/noise_peaks.py)
 MIN_PEAK_SHARE = 1e-7
+#: Radii of the weave rings, in thread periods (one, the diagonal of a square cell, two threads, ...).
+RING_PERIODS = (0.5, 1.0, 1.41, 1.5, 2.0, 2.24, 3.0)
+#: Angles sampled on each weave ring.
+RING_ANGLES = 72
+#: Numbers kept per weave ring.
+RING_STATISTICS = ("max", "min", "mean", "h2", "h4")
 #: (neighbours, radius) of the LBP baseline.
 LBP_SCALES = ((8, 1), (16, 2), (24, 3))
 
@@ -74,9 +88,10 @@ STRUCTURE_COLUMNS = (
     "s_coherence", "s_kurtosis", "s_skew",
     *[f"s_lbp_{k}" for k in range(10)],
 )
+WEAVE_COLUMNS = tuple(f"w_{stat}_{k}" for k in range(1, len(RING_PERIODS) + 1) for stat in RING_STATISTICS)
 LBP_COLUMNS = tuple(f"lbp_{p}_{r}_{k}" for p, r in LBP_SCALES for k in range(p + 2))
 #: Columns a tile (:func:`tile_columns`) re-describes; its image's row gives the others (the BSDF, the paper's features).
-TILE_FEATURES = (*STRUCTURE_COLUMNS, *LBP_COLUMNS)
+TILE_FEATURES = (*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *LBP_COLUMNS)
 #: The structure descriptor of a fitted shade (albedo) texture: ``a_`` + each structure column.
 SHADE_PREFIX = "a_"
 SHADE_COLUMNS = tuple(SHADE_PREFIX + name for name in STRUCTURE_COLUMNS)
@@ -284,6 +299,47 @@ def texture_features(canonical: np.ndarray, field: np.ndarray) -> dict[str, floa
     return out
 
 
+def autocorrelation(field: np.ndarray) -> np.ndarray:
+    """Normalised autocorrelation of a field, lag (0, 0) at the centre of a (2H, 2W) array; zeros for a flat field.
+
+    Linear, not circular: the field is zero-padded and each lag's sum is divided
+    by the number of pixel pairs it holds, so the value at a lag is the mean
+    product of pixels that far apart over the variance.
+    """
+    f = np.asarray(field, dtype=np.float64)
+    f = f - f.mean()
+    shape = (2 * f.shape[0], 2 * f.shape[1])
+    products = np.fft.irfft2(np.abs(np.fft.rfft2(f, s=shape)) ** 2, s=shape)
+    pairs = np.fft.irfft2(np.abs(np.fft.rfft2(np.ones_like(f), s=shape)) ** 2, s=shape)
+    acf = np.fft.fftshift(products / np.maximum(pairs, 1.0))
+    variance = acf[f.shape[0], f.shape[1]]
+    return acf / variance if variance > 1e-12 else np.zeros_like(acf)
+
+
+def weave_rings(canonical: np.ndarray) -> dict[str, float]:
+    """The ``w_*`` columns: the canonical field's autocorrelation on circles of :data:`RING_PERIODS` periods.
+
+    Per circle (:data:`RING_ANGLES` bilinear samples) the largest, smallest and
+    mean correlation and the magnitudes of the second and fourth angular
+    harmonics; all five are unchanged by a rotation of the field. A circle wider
+    than 0.45 of the field's side reads zeros.
+    """
+    acf = autocorrelation(canonical)
+    cy, cx = canonical.shape[0], canonical.shape[1]
+    angles = np.arange(RING_ANGLES) * 2 * np.pi / RING_ANGLES
+    out: dict[str, float] = {}
+    for k, periods in enumerate(RING_PERIODS, start=1):
+        radius = periods * CANONICAL_PERIOD
+        if radius > 0.45 * min(canonical.shape):
+            ring = np.zeros(RING_ANGLES)
+        else:
+            ring = ndimage.map_coordinates(acf, [cy + radius * np.sin(angles), cx + radius * np.cos(angles)], order=1)
+        harmonics = np.abs(np.fft.rfft(ring)) / RING_ANGLES
+        values = (ring.max(), ring.min(), ring.mean(), harmonics[2], harmonics[4])
+        out.update({f"w_{stat}_{k}": float(v) for stat, v in zip(RING_STATISTICS, values)})
+    return out
+
+
 def lbp_histogram(field: np.ndarray, neighbours: int, radius: float) -> np.ndarray:
     """Normalised histogram of uniform rotation-invariant LBP codes (``neighbours + 2`` bins)."""
     image = np.asarray(field, dtype=np.float64)
@@ -335,7 +391,7 @@ def structure_features(field: np.ndarray, settings: StructureSettings) -> tuple[
 
 
 def texture_columns(field: np.ndarray, settings: StructureSettings) -> dict[str, float]:
-    """The ``s_*`` and ``lbp_*`` columns of one field.
+    """The ``s_*``, ``w_*`` and ``lbp_*`` columns of one field.
 
     ``settings.lbp_scale`` says where the ``lbp_*`` histograms are taken:
     ``pixels``, the field as it is (the plain baseline; it moves with the
@@ -345,7 +401,8 @@ def texture_columns(field: np.ndarray, settings: StructureSettings) -> dict[str,
     if settings.lbp_scale not in ("pixels", "canonical"):
         raise ValueError(f"lbp_scale must be 'pixels' or 'canonical', got {settings.lbp_scale!r}")
     features, diagnostics = structure_features(field, settings)
-    return features | lbp_baseline(diagnostics["canonical"] if settings.lbp_scale == "canonical" else field)
+    rings = weave_rings(diagnostics["canonical"])
+    return features | rings | lbp_baseline(diagnostics["canonical"] if settings.lbp_scale == "canonical" else field)
 
 
 def window(field: np.ndarray, border: float) -> np.ndarray:

@@ -37,7 +37,8 @@ Columns (:func:`feature_schema`, an explicit pyarrow schema):
   *s*); ``r_1..r_n``, ``z_1..z_n`` and ``n_peaks``
   (:func:`clothscope.features.paper.analyse_normal_map`);
 * this project's thread-structure descriptor, ``s_*``
-  (:data:`clothscope.features.structure.STRUCTURE_COLUMNS`), and the plain texture
+  (:data:`clothscope.features.structure.STRUCTURE_COLUMNS`), its weave rings ``w_*``
+  (:data:`clothscope.features.structure.WEAVE_COLUMNS`), and the plain texture
   baseline ``lbp_*`` (:data:`clothscope.features.structure.LBP_COLUMNS`), both of the
   source's field (the LBP at its pixels, or at the canonical thread period with
   ``features.structure.lbp_scale: canonical``); ``a_*``, the structure descriptor of the fitted shade
@@ -54,7 +55,7 @@ used for training or scoring.
 *Tile rows* (:func:`tile_schema`, ``features/<source>/tiles/``): with
 ``features.tiles.grid`` > 0, each usable image also gets one row per tile of
 its field (:func:`clothscope.features.structure.tile_fields`), with
-``image_id``, ``tile`` and the :data:`TILE_FEATURES` (``s_*`` and ``lbp_*``)
+``image_id``, ``tile`` and the :data:`TILE_FEATURES` (``s_*``, ``w_*`` and ``lbp_*``)
 of that tile; the classifier trains on them as extra rows of their image
 (:func:`clothscope.classify.rows.with_tiles`).
 """
@@ -82,6 +83,7 @@ from clothscope.features.structure import (
     SHADE_COLUMNS,
     STRUCTURE_COLUMNS,
     TILE_FEATURES,
+    WEAVE_COLUMNS,
     StructureSettings,
     TileSettings,
     shade_features,
@@ -162,8 +164,8 @@ def paper_feature_columns(n_peaks: int) -> list[str]:
 
 
 def feature_columns(n_peaks: int, extras: bool) -> list[str]:
-    """Every feature column of a table: the paper's, the structure descriptor's, the LBP baseline's, the extras."""
-    return (paper_feature_columns(n_peaks) + list(STRUCTURE_COLUMNS) + list(LBP_COLUMNS) + list(SHADE_COLUMNS)
+    """Every feature column of a table: the paper's, the structure descriptor's and its weave rings, the LBP baseline's, the extras."""
+    return (paper_feature_columns(n_peaks) + list(STRUCTURE_COLUMNS) + list(WEAVE_COLUMNS) + list(LBP_COLUMNS) + list(SHADE_COLUMNS)
             + (list(EXTRA_COLUMNS) if extras else []))
 
 
@@ -197,7 +199,7 @@ def _row(image_id: str, fabric_class: str | None, settings: SpectrumSettings, ex
     for name in paper_feature_columns(settings.n_peaks)[2:]:
         value = features.get(name, 0.0)
         row[name] = int(round(value)) if name == "n_peaks" else finite_number(value, name)
-    for name in (*STRUCTURE_COLUMNS, *LBP_COLUMNS, *SHADE_COLUMNS):
+    for name in (*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *LBP_COLUMNS, *SHADE_COLUMNS):
         row[name] = finite_number(structure.get(name, 0.0), name)
     if extras:
         for name in EXTRA_COLUMNS:
