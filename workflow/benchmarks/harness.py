@@ -87,16 +87,23 @@ def publish(folder: Path, name: str, table: pd.DataFrame, text: str, float_forma
     print(text)
 
 
-def runs_report(doc: str, name: str, runs_help: str, rows_of_run: Callable[[Path], list[dict]],
-                markdown: Callable[[pd.DataFrame], str]) -> None:
+def runs_report(doc: str, name: str, runs_help: str, rows_of_run: Callable[..., list[dict]],
+                markdown: Callable[[pd.DataFrame], str], flags: tuple[tuple[str, str], ...] = ()) -> None:
     """The command line ``RUN [RUN ...] [--out DIR] [--name NAME]`` of a per-run benchmark: ``rows_of_run`` of every
-    run (a path under the repository root) in one table, published with its ``markdown`` (:func:`publish`)."""
+    run (a path under the repository root) in one table, published with its ``markdown`` (:func:`publish`).
+
+    Each of ``flags`` (``--flag-name``, help) adds a switch, passed to ``rows_of_run`` as a keyword (``flag_name``).
+    """
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("runs", nargs="+", help=runs_help)
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     parser.add_argument("--name", default=name)
+    for flag, text in flags:
+        parser.add_argument(flag, action="store_true", help=text)
     args = parser.parse_args()
-    table = pd.DataFrame([row for run in args.runs for row in rows_of_run(ROOT / run)])
+    switches = {flag.lstrip("-").replace("-", "_") for flag, _ in flags}
+    options = {key: value for key, value in vars(args).items() if key in switches}
+    table = pd.DataFrame([row for run in args.runs for row in rows_of_run(ROOT / run, **options)])
     publish(args.out, args.name, table, markdown(table))
 
 

@@ -413,7 +413,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The weave rings on the sets that chose and confirmed them", ("bench/weave_rings.md",),
                         f"{py}/weave_rings.py results/microscope/run results/weaves/run results/weaves_confirm/run "
                         "results/microscope_confirm/run results/weaves_fresh/run results/weaves_period/run "
-                        "results/confirm_1126/run results"),
+                        "results/confirm_1126/run results --no-record"),
         BenchmarkReport("The weave rings on three fresh sets", ("bench/weave_rings_fresh.md",),
                         f"{py}/weave_rings.py results/microscope_1130/run results/weaves_1131/run results/holdout_1132/run "
                         "--name weave_rings_fresh"),

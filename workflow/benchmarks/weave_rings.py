@@ -1,6 +1,6 @@
 """Benchmark: what the weave rings (``w_*``, the autocorrelation at the canonical period) add, source by source.
 
-    .venv/bin/python workflow/benchmarks/weave_rings.py RUN [RUN ...] [--name weave_rings]
+    .venv/bin/python workflow/benchmarks/weave_rings.py RUN [RUN ...] [--no-record] [--name weave_rings]
 
 For each run folder (its feature tables written by this version, which holds the ``w_*`` columns), scores the
 same LOOCV QDA as the ``feature_sets`` rule, whole images, on the photo's structure and structure + LBP, the
@@ -52,12 +52,13 @@ def record_row(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.DataFr
             "n": scores["with"].n}
 
 
-def run_rows(run: Path, settings: dict) -> list[dict]:
-    """Every scored set and the classifier of record on one run."""
+def run_rows(run: Path, settings: dict, no_record: bool = False) -> list[dict]:
+    """Every scored set and (unless ``no_record``) the classifier of record on one run."""
     sources = tuple(s for s in ("fitted", "photo", "truth") if (run / "features" / s / "table.parquet").is_file())
     tables, tile_tables = run_tables(run, sources)
     rows = [set_rows(tables[source], source, group, settings) for source, group in SCORED if source in tables]
-    rows.append(record_row(tables, tile_tables, settings))
+    if not no_record:
+        rows.append(record_row(tables, tile_tables, settings))
     return [{"run": shown(run), **row} for row in rows]
 
 
@@ -78,7 +79,9 @@ def markdown(table: pd.DataFrame) -> str:
 
 def main() -> None:
     settings = classify_config()
-    runs_report(__doc__, "weave_rings", "run folders (each with features/<source>/table.parquet)", lambda run: run_rows(run, settings), markdown)
+    runs_report(__doc__, "weave_rings", "run folders (each with features/<source>/table.parquet)",
+                lambda run, **options: run_rows(run, settings, **options), markdown,
+                flags=(("--no-record", "skip the classifier of record (its two LOOCVs with tiles take minutes per run)"),))
 
 
 if __name__ == "__main__":
