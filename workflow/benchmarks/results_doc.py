@@ -88,25 +88,24 @@ def workflow_runs(results: Path) -> list[Run]:
                                 ("microscope", "microscope"), ("microscope_confirm", "microscope_confirm"),
                                 ("weaves_1131", "weaves_1131"), ("microscope_1130", "microscope_1130")))
     default_sheet = ROOT / "config" / "samples.tsv"
+
+    def rendered_run(label: str, folder: str, images: str, command: str) -> Run:
+        """A set rendered into ``results/<folder>/<images>/`` (holdout or field) and run into ``results/<folder>/run``."""
+        return Run(label, results / folder / "run", results / folder / images / "samples.tsv", command)
+
     return [
         Run("design", results, default_sheet, design),
         Run("held-out", results / "holdout" / "run", results / "holdout" / "samples.tsv", holdout),
-        Run("held-out 1126", results / "confirm_1126" / "run", results / "confirm_1126" / "holdout" / "samples.tsv", confirm),
+        rendered_run("held-out 1126", "confirm_1126", "holdout", confirm),
         Run("field", results / "field" / "run", results / "field" / "samples.tsv", field),
-        Run("three weaves", results / "weaves" / "run", results / "weaves" / "field" / "samples.tsv", weaves),
-        Run("three weaves, fresh", results / "weaves_fresh" / "run", results / "weaves_fresh" / "field" / "samples.tsv", fresh),
-        Run("three weaves, fourth", results / "weaves_period" / "run", results / "weaves_period" / "field" / "samples.tsv",
-            period),
-        Run("microscope-like weaves", results / "microscope" / "run", results / "microscope" / "field" / "samples.tsv",
-            microscope),
-        Run("microscope-like weaves, second", results / "microscope_confirm" / "run",
-            results / "microscope_confirm" / "field" / "samples.tsv", microscope_confirm),
-        Run("held-out 1132", results / "holdout_1132" / "run", results / "holdout_1132" / "holdout" / "samples.tsv",
-            confirm_1132),
-        Run("three weaves, fifth", results / "weaves_1131" / "run", results / "weaves_1131" / "field" / "samples.tsv",
-            weaves_1131),
-        Run("microscope-like weaves, third", results / "microscope_1130" / "run",
-            results / "microscope_1130" / "field" / "samples.tsv", microscope_1130),
+        rendered_run("three weaves", "weaves", "field", weaves),
+        rendered_run("three weaves, fresh", "weaves_fresh", "field", fresh),
+        rendered_run("three weaves, fourth", "weaves_period", "field", period),
+        rendered_run("microscope-like weaves", "microscope", "field", microscope),
+        rendered_run("microscope-like weaves, second", "microscope_confirm", "field", microscope_confirm),
+        rendered_run("held-out 1132", "holdout_1132", "holdout", confirm_1132),
+        rendered_run("three weaves, fifth", "weaves_1131", "field", weaves_1131),
+        rendered_run("microscope-like weaves, third", "microscope_1130", "field", microscope_1130),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
