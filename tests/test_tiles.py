@@ -15,7 +15,15 @@ from clothscope.classify.loocv import loocv
 from clothscope.classify.model import train_model
 from clothscope.classify.rows import with_tiles
 from clothscope.core.schema import load_schema, validate
-from clothscope.features.structure import MIN_FIELD, TILE_FEATURES, StructureSettings, TileSettings, tile_fields, window
+from clothscope.features.structure import (
+    MIN_FIELD,
+    TILE_FEATURES,
+    StructureSettings,
+    TileSettings,
+    tile_fields,
+    view_fields,
+    window,
+)
 from clothscope.features.table import feature_table_job, features_job, tile_rows, tile_schema
 
 FEATURES = validate({}, load_schema(SCHEMAS / "config.schema.yaml"), "config")["features"]
@@ -56,6 +64,38 @@ def test_tile_rows_are_finite_and_of_the_tile_schema():
     assert max(abs(r["s_prof_3"] - rows[0]["s_prof_3"]) for r in rows) < 0.2
 
 
+def strongest_period(field: np.ndarray) -> tuple[float, float]:
+    """Period (px) and direction (degrees, 0 along x) of the strongest Fourier component of a square field."""
+    power = np.abs(np.fft.fft2(field - field.mean())) ** 2
+    n = field.shape[0]
+    fy, fx = np.unravel_index(np.argmax(power), power.shape)
+    fy, fx = (fy + n // 2) % n - n // 2, (fx + n // 2) % n - n // 2
+    return n / np.hypot(fx, fy), np.degrees(np.arctan2(fy, fx)) % 180.0
+
+
+def test_views_turn_and_zoom_the_threads():
+    y, x = np.mgrid[:250, :250].astype(float)
+    stripes = np.cos(2 * np.pi * x / 10.0)
+    turned, closer, farther = view_fields(stripes, 0.1, TileSettings(grid=0, size=0.5, turns=(90.0,), zooms=(1.5, 0.6)))
+    assert turned.shape == (200, 200) and closer.shape == (200, 200) and farther.shape == (120, 120)
+    period, direction = strongest_period(turned)
+    assert period == pytest.approx(10.0, rel=0.03) and direction == pytest.approx(90.0, abs=2.0)
+    assert strongest_period(closer)[0] == pytest.approx(15.0, rel=0.05)  # threads look 1.5 times larger
+    assert strongest_period(farther)[0] == pytest.approx(6.0, rel=0.05)
+    diagonal = view_fields(stripes, 0.1, TileSettings(grid=0, size=0.5, turns=(45.0,)))[0]
+    assert diagonal.shape[0] == int(200 / np.sqrt(2))  # the upright square inside the turned one
+
+
+def test_views_are_numbered_after_the_tiles_and_refused_when_bad_or_too_small():
+    rows = tile_rows("img", weave(), STRUCTURE, TileSettings(grid=2, size=0.6, turns=(30.0,), zooms=(1.3, 0.77)))
+    assert [r["tile"] for r in rows] == [0, 1, 2, 3, 4, 5, 6]
+    assert [r["tile"] for r in tile_rows("img", weave(), STRUCTURE, TileSettings(grid=0, size=0.6, zooms=(1.3,)))] == [0]
+    assert view_fields(weave(48), 0.1, TileSettings(grid=0, size=0.5, turns=(30.0,), zooms=(0.77,))) == []
+    for turns, zooms in (((float("nan"),), ()), ((), (0.0,)), ((), (float("inf"),))):
+        with pytest.raises(ValueError, match="views"):
+            view_fields(weave(), 0.1, TileSettings(grid=0, size=0.5, turns=turns, zooms=zooms))
+
+
 def test_features_job_writes_tiles_only_for_a_usable_image(tmp_path):
     image = tmp_path / "q.png"
     shutil.copy(SYNTHETIC / "canvas" / "canvas_red.png", image)
@@ -67,7 +107,8 @@ def test_features_job_writes_tiles_only_for_a_usable_image(tmp_path):
     features_job("canvas_red", "canvas", "truth", str(truth), None, FEATURES, str(tmp_path / "c.parquet"),
                  str(tmp_path / "c.png"), tiles_path=str(tmp_path / "tiles" / "c.parquet"))
     tiles = pq.read_table(tmp_path / "tiles" / "c.parquet")
-    assert tiles.num_rows == FEATURES["tiles"]["grid"] ** 2 and tiles.schema.equals(tile_schema(), check_metadata=False)
+    views = len(FEATURES["tiles"]["turns"]) + len(FEATURES["tiles"]["zooms"])
+    assert tiles.num_rows == FEATURES["tiles"]["grid"] ** 2 + views and tiles.schema.equals(tile_schema(), check_metadata=False)
     target = tmp_path / "table.parquet"
     feature_table_job([tmp_path / "c.parquet", out / "q.parquet"], target,
                       [tmp_path / "tiles" / "c.parquet", out / "tiles" / "q.parquet"], tmp_path / "tiles" / "table.parquet")

@@ -77,16 +77,17 @@ def workflow_runs(results: Path) -> list[Run]:
              f"--config samples={r}/field/samples.tsv results={r}/field/run")
     albedo = (".venv/bin/snakemake --cores 2 --configfile config/config.yaml config/overlays/colour_texture.yaml "
               f"--config results={r}/exp_albedo")
-    confirm, confirm_1132 = (
+    confirm, confirm_1132, confirm_1135 = (
         f".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{overlay}/holdout/samples.tsv results={r}/{overlay}/run"
-        for overlay in ("confirm_1126", "holdout_1132"))
-    weaves, fresh, period, microscope, microscope_confirm, weaves_1131, microscope_1130 = (
+        for overlay in ("confirm_1126", "holdout_1132", "holdout_1135"))
+    weaves, fresh, period, microscope, microscope_confirm, weaves_1131, microscope_1130, weaves_1134, microscope_1133 = (
         f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
         for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh"), ("weaves_period", "weaves_period"),
                                 ("microscope", "microscope"), ("microscope_confirm", "microscope_confirm"),
-                                ("weaves_1131", "weaves_1131"), ("microscope_1130", "microscope_1130")))
+                                ("weaves_1131", "weaves_1131"), ("microscope_1130", "microscope_1130"),
+                                ("weaves_1134", "weaves_1134"), ("microscope_1133", "microscope_1133")))
     default_sheet = ROOT / "config" / "samples.tsv"
 
     def rendered_run(label: str, folder: str, images: str, command: str) -> Run:
@@ -106,6 +107,9 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1132", "holdout_1132", "holdout", confirm_1132),
         rendered_run("three weaves, fifth", "weaves_1131", "field", weaves_1131),
         rendered_run("microscope-like weaves, third", "microscope_1130", "field", microscope_1130),
+        rendered_run("held-out 1135", "holdout_1135", "holdout", confirm_1135),
+        rendered_run("three weaves, sixth", "weaves_1134", "field", weaves_1134),
+        rendered_run("microscope-like weaves, fourth", "microscope_1133", "field", microscope_1133),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -416,6 +420,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The weave rings on three fresh sets", ("bench/weave_rings_fresh.md",),
                         f"{py}/weave_rings.py results/microscope_1130/run results/weaves_1131/run results/holdout_1132/run "
                         "--name weave_rings_fresh"),
+        BenchmarkReport("Turned and zoomed views as extra training rows, screening", ("bench/views_gain.md",),
+                        f"{py}/views_gain.py results results/weaves/run results/microscope/run"),
         BenchmarkReport("Tiles on the three-weave set of seed 20261203", ("bench/tiles_gain_weaves.md",),
                         f"{py}/tiles_gain.py results/weaves/run --name tiles_gain_weaves"),
         BenchmarkReport("Tiles on the fresh three-weave set (seed 20261226)", ("bench/tiles_gain_weaves_fresh.md",),

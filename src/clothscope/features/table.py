@@ -54,7 +54,9 @@ used for training or scoring.
 
 *Tile rows* (:func:`tile_schema`, ``features/<source>/tiles/``): with
 ``features.tiles.grid`` > 0, each usable image also gets one row per tile of
-its field (:func:`clothscope.features.structure.tile_fields`), with
+its field (:func:`clothscope.features.structure.tile_fields`), and one per
+view of it turned or zoomed (``features.tiles.turns`` and ``zooms``,
+:func:`clothscope.features.structure.view_fields`), with
 ``image_id``, ``tile`` and the :data:`TILE_FEATURES` (``s_*``, ``w_*`` and ``lbp_*``)
 of that tile; the classifier trains on them as extra rows of their image
 (:func:`clothscope.classify.rows.with_tiles`).
@@ -111,16 +113,22 @@ PROVENANCE = (
 
 
 def tile_schema() -> pa.Schema:
-    """The explicit schema of tile rows: ``image_id``, ``tile`` (0 .. grid^2 - 1) and :data:`TILE_FEATURES`."""
+    """The explicit schema of tile rows: ``image_id``, ``tile`` (0 .. grid^2 - 1 the tiles, then the views) and :data:`TILE_FEATURES`."""
     fields = [pa.field("image_id", pa.string(), nullable=False), pa.field("tile", pa.int64(), nullable=False)]
     fields += [pa.field(name, pa.float64(), nullable=False) for name in TILE_FEATURES]
     return pa.schema(fields, metadata={b"clothscope_version": __version__.encode()})
 
 
 def tile_rows(image_id: str, field: np.ndarray, structure: StructureSettings, tiles: TileSettings) -> list[dict[str, Any]]:
-    """One row per tile of the field (:func:`clothscope.features.structure.tile_fields`); none without tiles."""
+    """One row per tile and view of the field (:func:`clothscope.features.structure.tile_columns`); none without either."""
     return [{"image_id": str(image_id), "tile": k, **{name: finite_number(values[name], name) for name in TILE_FEATURES}}
-            for k, values in enumerate(tile_columns(field, structure, tiles))]
+            for k, values in tile_columns(field, structure, tiles).items()]
+
+
+def tile_settings(tiles_config: dict[str, Any]) -> TileSettings:
+    """:class:`~clothscope.features.structure.TileSettings` from ``features.tiles`` of the validated config."""
+    return TileSettings(int(tiles_config["grid"]), float(tiles_config["size"]),
+                        tuple(float(t) for t in tiles_config["turns"]), tuple(float(z) for z in tiles_config["zooms"]))
 
 
 def specular_norm(specular: float) -> float:
@@ -356,7 +364,7 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
         try:
             row, result = compute_row(image_id, fabric_class, loaded.normals, loaded.field, loaded.roughness,
                                       loaded.specular, settings, structure, extras, loaded.shade, **provenance)
-            tiles = tile_rows(image_id, loaded.field, structure, TileSettings(**features_config["tiles"])) if tiles_path else []
+            tiles = tile_rows(image_id, loaded.field, structure, tile_settings(features_config["tiles"])) if tiles_path else []
         except ValueError as err:
             row, result, tiles = None, None, []
             loaded = unusable_input("failed", f"spectrum analysis: {err}", loaded.mitsuba_variant)

@@ -1,0 +1,84 @@
+"""Benchmark: what turned and zoomed views (``features.tiles.turns`` and ``zooms``) change, as extra training rows.
+
+    .venv/bin/python workflow/benchmarks/views_gain.py RUN [RUN ...] [--name views_gain]
+
+For each run folder, recomputes every usable image's tile rows from its fitted relief and prepared photo with
+the views of :data:`VIEWS` (those of ``config/overlays/views.yaml``) and scores, on the run's feature tables,
+the feature-set report's sets and the classifier of record (as the ``classify`` rule runs them) twice: with
+the tiles alone and with the tiles and the views. Writes ``results/bench/<name>.{csv,md}``. Nothing is chosen here.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+from class_subsets import classify_config
+from harness import record_inputs, run_tables, runs_report, shown, validated_config
+
+from clothscope.classify.feature_sets import compare_feature_sets
+from clothscope.classify.loocv import loocv
+from clothscope.features.sources import STATUS_OK, load_normal_input
+from clothscope.features.structure import TileSettings
+from clothscope.features.table import structure_settings, tile_rows
+
+#: The views scored: turns (degrees) and zooms, as in ``config/overlays/views.yaml``.
+VIEWS = {"turns": (30.0,), "zooms": (1.3, 0.77)}
+
+MODES = ("tiles", "tiles and views")
+
+#: Where a run keeps each source's input folder of one image.
+SOURCE_DIRS = {"fitted": ("fit", "normals"), "photo": ("prepared",)}
+
+
+def source_tiles(run: Path, source: str, images: list[str], features: dict) -> pd.DataFrame:
+    """Tile and view rows of ``images`` from one source of ``run`` (the workflow's tile settings plus :data:`VIEWS`)."""
+    tiles = TileSettings(features["tiles"]["grid"], features["tiles"]["size"], VIEWS["turns"], VIEWS["zooms"])
+    rows = []
+    for image in images:
+        parts = SOURCE_DIRS[source]
+        folder = run / parts[0] / image / Path(*parts[1:])
+        loaded = load_normal_input(source, "", folder, features["fitted_field"], features["photo_field"])
+        if loaded.status == STATUS_OK:
+            rows += tile_rows(image, loaded.field, structure_settings(features), tiles)
+    return pd.DataFrame(rows)
+
+
+def scored(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame], settings: dict) -> list[dict]:
+    """The feature-set report's sets and the classifier of record, each fold also training on ``tiles``."""
+    report = compare_feature_sets(tables, settings["reg"], settings["subspace"], tiles)
+    rows = [{"feature_set": r.feature_set, "correct": int(r.correct), "n": int(r.n)}
+            for r in report[report["status"] == "ok"].itertuples() if not r.feature_set.endswith("truth")]
+    ok, joined, candidates = record_inputs(tables, tiles, settings["feature_set"])
+    result = loocv(ok, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=joined)
+    return rows + [{"feature_set": "classifier of record", "correct": result.correct, "n": result.n}]
+
+
+def run_rows(run: Path) -> list[dict]:
+    """Every set of one run with the tiles alone and with the views too."""
+    features, settings = validated_config()["features"], classify_config()
+    tables, _ = run_tables(run, ("fitted", "photo"))
+    images = tables["photo"].loc[tables["photo"]["status"] == STATUS_OK, "image_id"].astype(str).tolist()
+    with_views = {source: source_tiles(run, source, images, features) for source in tables}
+    tiles_only = {source: rows[rows["tile"] < features["tiles"]["grid"] ** 2] for source, rows in with_views.items()}
+    return [{"run": shown(run), "mode": mode, **row}
+            for mode, tiles in zip(MODES, (tiles_only, with_views)) for row in scored(tables, tiles, settings)]
+
+
+def markdown(table: pd.DataFrame) -> str:
+    """One line per run and feature set: images right with the tiles alone, and with the views too."""
+    wide = table.pivot_table(index=["run", "feature_set"], columns="mode", values="correct", sort=False).reset_index()
+    n = table.groupby("run")["n"].max()
+    lines = [f"LOOCV images right, each fold training on its images' tiles, then also on views turned by "
+             f"{', '.join(f'{t:g}' for t in VIEWS['turns'])} degrees and zoomed by {', '.join(f'{z:g}' for z in VIEWS['zooms'])}:", "",
+             f"| run | feature set | {MODES[0]} | {MODES[1]} |", "|---|---|---|---|"]
+    lines += [f"| `{r['run']}` | {r['feature_set']} | {int(r[MODES[0]])}/{n[r['run']]} | {int(r[MODES[1]])}/{n[r['run']]} |"
+              for _, r in wide.iterrows()]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    runs_report(__doc__, "views_gain", "run folders (each with features/<source>/table.parquet, fit/ and prepared/)", run_rows, markdown)
+
+
+if __name__ == "__main__":
+    main()
