@@ -450,7 +450,7 @@ def turned(square: np.ndarray, degrees: float) -> np.ndarray:
     """``square`` turned by ``degrees`` (bilinear), cut to the largest upright centred square inside the turned one."""
     side = square.shape[0]
     angle = np.radians(degrees)
-    keep = int(side / (abs(np.cos(angle)) + abs(np.sin(angle))))
+    keep = int(side / (abs(np.cos(angle)) + abs(np.sin(angle))) + 1e-9)  # exact at multiples of 90 degrees
     start = (side - keep) // 2
     rotated = ndimage.rotate(square, degrees, reshape=False, order=1, mode="reflect")
     return rotated[start : start + keep, start : start + keep]
@@ -471,7 +471,8 @@ def view_fields(field: np.ndarray, border: float, tiles: TileSettings) -> list[n
     """The analysis window turned by each of ``tiles.turns`` (degrees) and zoomed by each of ``tiles.zooms``.
 
     These views show the classifier the same cloth at another orientation and camera
-    distance, so it learns to ignore them. Views smaller than :data:`MIN_FIELD` are left out.
+    distance, so it learns to ignore them. None (an empty list) when one would be smaller than
+    :data:`MIN_FIELD` pixels.
 
     Raises
     ------
