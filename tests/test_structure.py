@@ -317,8 +317,9 @@ def test_only_the_ring_sources_sets_take_the_weave_rings():
     from clothscope.classify.feature_sets import RING_SOURCES, source_columns
 
     own = [*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *LBP_COLUMNS]
-    columns = [f"{source}.{c}" for source in ("fitted", "photo") for c in own]
-    for source in ("fitted", "photo"):
+    columns = [f"{source}.{c}" for source in ("fitted", "photo", "truth") for c in own]
+    assert "truth" not in RING_SOURCES  # the true relief scores 100% without them
+    for source in ("fitted", "photo", "truth"):
         rings = [c for c in source_columns(columns, source, "texture") if c.split(".", 1)[1] in WEAVE_COLUMNS]
         assert len(rings) == (len(WEAVE_COLUMNS) if source in RING_SOURCES else 0), source
     with pytest.raises(ValueError, match="unknown"):

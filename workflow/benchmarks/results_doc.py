@@ -420,6 +420,9 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The weave rings on three fresh sets", ("bench/weave_rings_fresh.md",),
                         f"{py}/weave_rings.py results/microscope_1130/run results/weaves_1131/run results/holdout_1132/run "
                         "--name weave_rings_fresh"),
+        BenchmarkReport("The weave rings in the fitted relief's sets, three fresh sets", ("bench/weave_rings_fitted.md",),
+                        f"{py}/weave_rings.py results/microscope_1133/run results/weaves_1134/run results/holdout_1135/run "
+                        "--name weave_rings_fitted"),
         BenchmarkReport("Turned and zoomed views as extra training rows, screening", ("bench/views_gain.md",),
                         f"{py}/views_gain.py results results/weaves/run results/microscope/run"),
         BenchmarkReport("Tiles on the three-weave set of seed 20261203", ("bench/tiles_gain_weaves.md",),

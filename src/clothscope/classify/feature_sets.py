@@ -31,7 +31,7 @@ AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf",
 PHOTO_GROUPS = {"photo_profile": "profile", "photo_paper": "paper", "photo_lbp": "lbp", "photo_texture": "texture"}
 #: Sources whose structure descriptor takes its weave rings ``w_*`` into every set that holds it (docs/design.md,
 #: "The weave rings"); the other sources' tables hold the rings too, and their sets leave them out.
-RING_SOURCES = ("photo",)
+RING_SOURCES = ("photo", "fitted")
 #: Provenance columns a joined table keeps from its first source.
 JOINED_PROVENANCE = ("image_id", "fabric_class", "status", "reason", "normal_source", "mitsuba_variant", "config_hash")
 
