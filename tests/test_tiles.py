@@ -15,16 +15,9 @@ from clothscope.classify.loocv import loocv
 from clothscope.classify.model import train_model
 from clothscope.classify.rows import with_tiles
 from clothscope.core.schema import load_schema, validate
-from clothscope.features.structure import (
-    MIN_FIELD,
-    TILE_FEATURES,
-    StructureSettings,
-    TileSettings,
-    tile_fields,
-    view_fields,
-    window,
-)
+from clothscope.features.structure import MIN_FIELD, TILE_FEATURES, StructureSettings, window
 from clothscope.features.table import feature_table_job, features_job, tile_rows, tile_schema
+from clothscope.features.tiles import TileSettings, tile_fields, view_fields
 
 FEATURES = validate({}, load_schema(SCHEMAS / "config.schema.yaml"), "config")["features"]
 STRUCTURE = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3, lbp_scale="pixels")

@@ -18,8 +18,7 @@ from harness import record_inputs, run_tables, runs_report, shown, validated_con
 from clothscope.classify.feature_sets import compare_feature_sets
 from clothscope.classify.loocv import loocv
 from clothscope.features.sources import STATUS_OK, load_normal_input
-from clothscope.features.structure import TileSettings
-from clothscope.features.table import structure_settings, tile_rows
+from clothscope.features.table import structure_settings, tile_rows, tile_settings
 
 #: The views scored: turns (degrees) and zooms, as in ``config/overlays/views.yaml``.
 VIEWS = {"turns": (30.0,), "zooms": (1.3, 0.77)}
@@ -32,14 +31,13 @@ SOURCE_DIRS = {"fitted": ("fit", "normals"), "photo": ("prepared",)}
 
 def source_tiles(run: Path, source: str, images: list[str], features: dict) -> pd.DataFrame:
     """Tile and view rows of ``images`` from one source of ``run`` (the workflow's tile settings plus :data:`VIEWS`)."""
-    tiles = TileSettings(features["tiles"]["grid"], features["tiles"]["size"], VIEWS["turns"], VIEWS["zooms"])
+    tiles, structure = tile_settings(features["tiles"] | VIEWS), structure_settings(features)
+    top, *below = SOURCE_DIRS[source]
     rows = []
     for image in images:
-        parts = SOURCE_DIRS[source]
-        folder = run / parts[0] / image / Path(*parts[1:])
-        loaded = load_normal_input(source, "", folder, features["fitted_field"], features["photo_field"])
+        loaded = load_normal_input(source, "", run / top / image / Path(*below), features["fitted_field"], features["photo_field"])
         if loaded.status == STATUS_OK:
-            rows += tile_rows(image, loaded.field, structure_settings(features), tiles)
+            rows += tile_rows(image, loaded.field, structure, tiles)
     return pd.DataFrame(rows)
 
 

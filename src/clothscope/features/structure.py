@@ -90,7 +90,7 @@ STRUCTURE_COLUMNS = (
 )
 WEAVE_COLUMNS = tuple(f"w_{stat}_{k}" for k in range(1, len(RING_PERIODS) + 1) for stat in RING_STATISTICS)
 LBP_COLUMNS = tuple(f"lbp_{p}_{r}_{k}" for p, r in LBP_SCALES for k in range(p + 2))
-#: Columns a tile (:func:`tile_columns`) re-describes; its image's row gives the others (the BSDF, the paper's features).
+#: Columns a tile (:func:`clothscope.features.tiles.tile_columns`) re-describes; its image's row gives the others (the BSDF, the paper's features).
 TILE_FEATURES = (*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *LBP_COLUMNS)
 #: The structure descriptor of a fitted shade (albedo) texture: ``a_`` + each structure column.
 SHADE_PREFIX = "a_"
@@ -412,87 +412,6 @@ def window(field: np.ndarray, border: float) -> np.ndarray:
     r0, c0 = (f.shape[0] - n) // 2, (f.shape[1] - n) // 2
     b = int(round(border * n))
     return f[r0 + b : r0 + n - b, c0 + b : c0 + n - b]
-
-
-@dataclass(frozen=True)
-class TileSettings:
-    """Sub-windows and views described as extra training rows (``features.tiles`` in the config schema, which holds the defaults)."""
-
-    grid: int
-    size: float
-    turns: tuple[float, ...] = ()
-    zooms: tuple[float, ...] = ()
-
-
-def tile_fields(field: np.ndarray, border: float, tiles: TileSettings) -> list[np.ndarray]:
-    """``grid`` x ``grid`` overlapping squares of the analysis window, each ``size`` of its side.
-
-    Evenly spaced from corner to corner; none (an empty list) with ``grid`` 0
-    or when a tile would be smaller than :data:`MIN_FIELD` pixels.
-
-    Raises
-    ------
-    ValueError
-        When ``grid`` is negative or ``size`` is not in (0, 1].
-    """
-    if tiles.grid < 0 or not 0.0 < tiles.size <= 1.0:
-        raise ValueError(f"tiles need grid >= 0 and size in (0, 1], got {tiles.grid} and {tiles.size}")
-    whole = window(field, border)
-    side = whole.shape[0]
-    size = int(round(tiles.size * side))
-    if tiles.grid == 0 or size < MIN_FIELD:
-        return []
-    starts = np.linspace(0, side - size, tiles.grid).round().astype(int)
-    return [whole[r : r + size, c : c + size] for r in starts for c in starts]
-
-
-def turned(square: np.ndarray, degrees: float) -> np.ndarray:
-    """``square`` turned by ``degrees`` (bilinear), cut to the largest upright centred square inside the turned one."""
-    side = square.shape[0]
-    angle = np.radians(degrees)
-    keep = int(side / (abs(np.cos(angle)) + abs(np.sin(angle))) + 1e-9)  # exact at multiples of 90 degrees
-    start = (side - keep) // 2
-    rotated = ndimage.rotate(square, degrees, reshape=False, order=1, mode="reflect")
-    return rotated[start : start + keep, start : start + keep]
-
-
-def zoomed(square: np.ndarray, factor: float) -> np.ndarray:
-    """``square`` seen ``factor`` times closer (bilinear): above 1 its centre magnified back to the same side,
-    below 1 the whole square shrunk (threads look finer)."""
-    if factor > 1.0:
-        side = square.shape[0]
-        keep = int(round(side / factor))
-        start = (side - keep) // 2
-        return ndimage.zoom(square[start : start + keep, start : start + keep], side / keep, order=1)
-    return ndimage.zoom(square, factor, order=1)
-
-
-def view_fields(field: np.ndarray, border: float, tiles: TileSettings) -> list[np.ndarray]:
-    """The analysis window turned by each of ``tiles.turns`` (degrees) and zoomed by each of ``tiles.zooms``.
-
-    These views show the classifier the same cloth at another orientation and camera
-    distance, so it learns to ignore them. None (an empty list) when one would be smaller than
-    :data:`MIN_FIELD` pixels.
-
-    Raises
-    ------
-    ValueError
-        When a zoom is not positive and finite, or a turn is not finite.
-    """
-    if not all(np.isfinite(t) for t in tiles.turns) or not all(np.isfinite(z) and z > 0 for z in tiles.zooms):
-        raise ValueError(f"views need finite turns and positive zooms, got {list(tiles.turns)} and {list(tiles.zooms)}")
-    whole = window(field, border)
-    views = [turned(whole, t) for t in tiles.turns] + [zoomed(whole, z) for z in tiles.zooms]
-    return views if all(min(v.shape) >= MIN_FIELD for v in views) else []
-
-
-def tile_columns(field: np.ndarray, settings: StructureSettings, tiles: TileSettings) -> dict[int, dict[str, float]]:
-    """:func:`texture_columns` of each extra training row's field, by row number: the :func:`tile_fields`
-    as 0 .. grid^2 - 1, then the :func:`view_fields` from grid^2 on (the same numbers on every source)."""
-    inner = StructureSettings(0.0, settings.peak_threshold, settings.fundamental_fraction, settings.lbp_scale)
-    numbered = list(enumerate(tile_fields(field, settings.border, tiles)))
-    numbered += [(tiles.grid**2 + k, view) for k, view in enumerate(view_fields(field, settings.border, tiles))]
-    return {k: texture_columns(f, inner) for k, f in numbered}
 
 
 def shade_features(shade: np.ndarray | None, settings: StructureSettings) -> dict[str, float]:

@@ -54,9 +54,9 @@ used for training or scoring.
 
 *Tile rows* (:func:`tile_schema`, ``features/<source>/tiles/``): with
 ``features.tiles.grid`` > 0, each usable image also gets one row per tile of
-its field (:func:`clothscope.features.structure.tile_fields`), and one per
+its field (:func:`clothscope.features.tiles.tile_fields`), and one per
 view of it turned or zoomed (``features.tiles.turns`` and ``zooms``,
-:func:`clothscope.features.structure.view_fields`), with
+:func:`clothscope.features.tiles.view_fields`), with
 ``image_id``, ``tile`` and the :data:`TILE_FEATURES` (``s_*``, ``w_*`` and ``lbp_*``)
 of that tile; the classifier trains on them as extra rows of their image
 (:func:`clothscope.classify.rows.with_tiles`).
@@ -87,11 +87,10 @@ from clothscope.features.structure import (
     TILE_FEATURES,
     WEAVE_COLUMNS,
     StructureSettings,
-    TileSettings,
     shade_features,
     texture_columns,
-    tile_columns,
 )
+from clothscope.features.tiles import TileSettings, tile_columns
 
 #: Keys of the ``features:`` config section that are SpectrumSettings fields.
 SPECTRUM_KEYS = tuple(f.name for f in dataclasses.fields(SpectrumSettings))
@@ -120,13 +119,13 @@ def tile_schema() -> pa.Schema:
 
 
 def tile_rows(image_id: str, field: np.ndarray, structure: StructureSettings, tiles: TileSettings) -> list[dict[str, Any]]:
-    """One row per tile and view of the field (:func:`clothscope.features.structure.tile_columns`); none without either."""
+    """One row per tile and view of the field (:func:`clothscope.features.tiles.tile_columns`); none without either."""
     return [{"image_id": str(image_id), "tile": k, **{name: finite_number(values[name], name) for name in TILE_FEATURES}}
             for k, values in tile_columns(field, structure, tiles).items()]
 
 
 def tile_settings(tiles_config: dict[str, Any]) -> TileSettings:
-    """:class:`~clothscope.features.structure.TileSettings` from ``features.tiles`` of the validated config."""
+    """:class:`~clothscope.features.tiles.TileSettings` from ``features.tiles`` of the validated config."""
     return TileSettings(int(tiles_config["grid"]), float(tiles_config["size"]),
                         tuple(float(t) for t in tiles_config["turns"]), tuple(float(z) for z in tiles_config["zooms"]))
 
