@@ -123,6 +123,9 @@ def test_config_hash_tracks_settings_and_source_not_the_switch():
     assert config_hash(base, "truth") != config_hash({**base, "alpha": 3.0}, "truth")
     assert config_hash(base, "photo") == config_hash({**base, "fitted_field": "shading"}, "photo")
     assert config_hash(base, "fitted") != config_hash({**base, "fitted_field": "shading"}, "fitted")
+    for source in ("photo", "fitted"):
+        assert config_hash(base, source) != config_hash({**base, "period_source": "prepare"}, source)
+    assert config_hash(base, "truth") == config_hash({**base, "period_source": "prepare"}, "truth")
 
 
 def test_truth_and_fitted_loaders(tmp_path):
@@ -314,6 +317,44 @@ def test_photo_shading_field_divides_out_the_dyes_and_keeps_luminance_for_algori
     np.testing.assert_allclose(shading.field / shading.field.mean(), relief / relief.mean(), atol=1e-3)
     with pytest.raises(ValueError, match="photo field must be one of luminance, shading"):
         load_photo(folder, "albedo")
+
+
+def test_the_descriptor_takes_the_period_prepare_measured_in_its_maps_pixels(tmp_path):
+    from clothscope.features.sources import descriptor_period, prepared_period
+    from clothscope.prepare.image import STATUS_FILE
+
+    folder = tmp_path / "prepared"
+    folder.mkdir()
+    (folder / STATUS_FILE).write_text(json.dumps({"status": "accepted", "scale": {"working_period_px": 12.5}}))
+    assert prepared_period(folder) == 12.5
+    assert descriptor_period("photo", folder, 1.0, "prepare") == 12.5
+    assert descriptor_period("fitted", folder, 0.94, "prepare") == pytest.approx(12.5 * 0.94)  # texels per working pixel
+    assert descriptor_period("fitted", folder, 0.94, "field") is None
+    assert descriptor_period("truth", folder, 1.0, "prepare") is None and descriptor_period("photo", None, 1.0, "prepare") is None
+    with pytest.raises(ValueError, match="period source must be one of field, prepare"):
+        descriptor_period("photo", folder, 1.0, "native")
+    for scale in ({"method": "frame"}, {"working_period_px": None}, {"working_period_px": "NaN"}, {"working_period_px": -1}, None):
+        (folder / STATUS_FILE).write_text(json.dumps({"status": "accepted", "scale": scale}))
+        assert prepared_period(folder) is None  # no lattice found, or the whole frame scaled: the map's own period
+    (folder / STATUS_FILE).write_text("{broken")
+    assert prepared_period(folder) is None and prepared_period(tmp_path / "missing") is None
+
+
+def test_features_job_reads_the_photo_at_the_period_prepare_measured(tmp_path):
+    from clothscope.prepare.image import STATUS_FILE, prepare_image
+
+    prepare_image("a", SYNTHETIC / "canvas" / "canvas_red.png", tmp_path / "a", config_settings("prepare", working_resolution=128, scale="frame"))
+    rows = {}
+    for name, period, source in (("own", None, "field"), ("given", 20.0, "prepare")):
+        status = json.loads((tmp_path / "a" / STATUS_FILE).read_text())
+        status["scale"]["working_period_px"] = period
+        (tmp_path / "a" / STATUS_FILE).write_text(json.dumps(status))
+        settings = {**FEATURE_DEFAULTS, "period_source": source}
+        rows[name] = features_job("a", "canvas", "photo", "x.png", str(tmp_path / "a"), settings, str(tmp_path / f"{name}.parquet"),
+                                  str(tmp_path / f"{name}.png"), prepared_dir=str(tmp_path / "a"))
+    assert rows["own"]["status"] == rows["given"]["status"] == "ok"
+    assert rows["own"]["s_prof_1"] != rows["given"]["s_prof_1"] and rows["own"]["r_1"] == rows["given"]["r_1"]
+    assert all(math.isfinite(v) for v in rows["given"].values() if isinstance(v, float))
 
 
 def test_physics_job_refuses_records_and_outputs_that_name_other_images(tmp_path):

@@ -26,10 +26,13 @@ from clothscope.features.structure import (
     WEAVE_COLUMNS,
     StructureSettings,
     autocorrelation,
+    find_lattice,
     lbp_baseline,
+    spectrum,
     structure_features,
     texture_columns,
     weave_rings,
+    with_period,
 )
 
 SETTINGS = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3, lbp_scale="pixels")
@@ -153,6 +156,32 @@ def test_lattice_survives_fibre_noise():
     noisy = weave() + 0.5 * np.random.default_rng(3).normal(size=(256, 256))
     _, diag = structure_features(noisy, SETTINGS)
     assert diag["lattice"] and diag["period_px"] == pytest.approx(10.0, rel=0.05)
+
+
+def colour_repeat(size: int = 256, period: float = 5.0, repeat: float = 32.0) -> np.ndarray:
+    """Fine threads under a strong, coarser colour repeat (yarn-dyed stripes), which the field's own peaks take for the fundamental."""
+    y, x = np.mgrid[:size, :size].astype(float)
+    threads = np.cos(2 * np.pi * x / period) + np.cos(2 * np.pi * y / period)
+    return 0.5 * threads + 3.0 * np.cos(2 * np.pi * x / repeat)
+
+
+def test_a_period_measured_elsewhere_replaces_the_fields_own_fundamental():
+    _, own = structure_features(colour_repeat(), SETTINGS)
+    assert own["period_px"] == pytest.approx(32.0, rel=0.05)  # the stripes, not the threads
+    features, given = structure_features(colour_repeat(), SETTINGS, period_px=5.0)
+    assert given["period_px"] == pytest.approx(5.0) and given["lattice"] == own["lattice"]
+    assert all(np.isfinite(v) for v in features.values())
+    rings = texture_columns(colour_repeat(), SETTINGS, 5.0)
+    assert rings == texture_columns(colour_repeat(), SETTINGS, period_px=5.0) != texture_columns(colour_repeat(), SETTINGS)
+
+
+@pytest.mark.parametrize("period", [None, float("nan"), float("inf"), 0.0, -3.0, 1.0, 200.0])
+def test_a_period_that_is_missing_or_outside_the_lattice_band_leaves_the_fundamental(period):
+    _, own = structure_features(weave(), SETTINGS)
+    _, given = structure_features(weave(), SETTINGS, period_px=period)
+    assert given["f0"] == own["f0"]
+    lattice = find_lattice(spectrum(weave(64)), SETTINGS)
+    assert with_period(lattice, 64, period) == lattice
 
 
 @pytest.mark.parametrize("field, message", [

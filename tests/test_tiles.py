@@ -17,7 +17,7 @@ from clothscope.classify.rows import with_tiles
 from clothscope.core.schema import load_schema, validate
 from clothscope.features.structure import MIN_FIELD, TILE_FEATURES, StructureSettings, window
 from clothscope.features.table import feature_table_job, features_job, tile_rows, tile_schema
-from clothscope.features.tiles import TileSettings, tile_fields, view_fields
+from clothscope.features.tiles import TileSettings, tile_columns, tile_fields, view_fields, view_periods
 
 FEATURES = validate({}, load_schema(SCHEMAS / "config.schema.yaml"), "config")["features"]
 STRUCTURE = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3, lbp_scale="pixels")
@@ -87,6 +87,16 @@ def test_views_are_numbered_after_the_tiles_and_refused_when_bad_or_too_small():
     for turns, zooms in (((float("nan"),), ()), ((), (0.0,)), ((), (float("inf"),))):
         with pytest.raises(ValueError, match="views"):
             view_fields(weave(), 0.1, TileSettings(grid=0, size=0.5, turns=turns, zooms=zooms))
+
+
+def test_tiles_and_views_take_the_period_given_a_zoom_scaling_it():
+    tiles = TileSettings(grid=2, size=0.6, turns=(30.0,), zooms=(1.3, 0.77))
+    assert view_periods(None, tiles) == [None, None, None]
+    assert view_periods(9.0, tiles) == pytest.approx([9.0, 9.0 * 1.3, 9.0 * 0.77])
+    given, own = tile_columns(weave(), STRUCTURE, tiles, 18.0), tile_columns(weave(), STRUCTURE, tiles)
+    assert sorted(given) == sorted(own) == [0, 1, 2, 3, 4, 5, 6]
+    assert all(given[k]["s_prof_1"] != own[k]["s_prof_1"] for k in given)  # every row reads the given period
+    assert tile_columns(weave(), STRUCTURE, tiles, 9.0)[0]["s_prof_1"] == pytest.approx(own[0]["s_prof_1"], abs=0.05)
 
 
 def test_features_job_writes_tiles_only_for_a_usable_image(tmp_path):

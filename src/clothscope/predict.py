@@ -58,7 +58,7 @@ def model_sources(model: QdaModel) -> list[str]:
 
 
 #: What models recorded before a key existed were processed with, where it differs from the schema default.
-LEGACY = {"prepare": {"scale": "frame"}, "fit": {"normals": {"colour_model": "one_colour"}}, "features": {"fitted_field": "relief"}}
+LEGACY = {"prepare": {"scale": "frame"}, "fit": {"normals": {"colour_model": "one_colour"}}, "features": {"fitted_field": "relief", "period_source": "field"}}
 
 
 def training_settings(model: QdaModel) -> dict[str, Any]:
@@ -124,7 +124,8 @@ def predict_photo(photo: str, image_id: str, model: QdaModel, physics_table: dic
         if source not in dirs:
             raise ValueError(f"model reads {source!r} features, which a photo does not have")
         row = features_job(image_id, None, source, photo, str(dirs[source]), settings["features"],
-                           str(work / "features" / f"{source}.parquet"), str(work / "features" / f"{source}.png"))
+                           str(work / "features" / f"{source}.parquet"), str(work / "features" / f"{source}.png"),
+                           prepared_dir=str(work / "prepared"))
         tables[source] = pd.DataFrame([row])
     step("classify")
     table = joined_table(tables)

@@ -14,4 +14,5 @@ with job_log(snakemake.log[0], "features") as log:
         snakemake.output.plot,
         log,
         tiles_path=snakemake.output.tiles,
+        prepared_dir=snakemake.input.get("prepared"),
     )

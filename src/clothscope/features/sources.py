@@ -27,6 +27,11 @@ FITTED_FIELDS = ("relief", "shading")
 PHOTO_FIELDS = ("luminance", "shading")
 
 
+#: Where the structure descriptor of the photo and fitted maps takes its thread period from (``features.period_source``):
+#: each map's own lattice peaks, or the period ``prepare`` measured on the photo at native resolution.
+PERIOD_SOURCES = ("field", "prepare")
+
+
 #: Status of a usable row.
 STATUS_OK = "ok"
 
@@ -167,6 +172,32 @@ def load_photo(prepared_dir: str | os.PathLike[str], field: str) -> NormalInput:
         return NormalInput(luminance, described, 0.0, 0.0, STATUS_OK, "", "photo", 1.0)
     except (OSError, RuntimeError, ValueError) as err:
         return unusable_input("failed", f"{folder}: {type(err).__name__}: {err}", "photo")
+
+
+def prepared_period(prepared_dir: str | os.PathLike[str]) -> float | None:
+    """The thread period (working pixels) ``prepare`` measured on the photo (``scale.working_period_px`` of its
+    status record); None when it found no lattice, scaled the whole frame, or the record is unreadable."""
+    try:
+        status = json.loads((Path(prepared_dir) / STATUS_FILE).read_text(encoding="utf-8"))
+        period = float((status.get("scale") or {}).get("working_period_px"))
+    except (OSError, ValueError, TypeError, AttributeError):
+        return None
+    return period if math.isfinite(period) and period > 0 else None
+
+
+def descriptor_period(source: str, prepared_dir: str | os.PathLike[str] | None, texels_per_pixel: float,
+                      period_source: str) -> float | None:
+    """Thread period, in the pixels of ``source``'s map, that its structure descriptor takes; None: the map's own.
+
+    With ``period_source`` ``prepare``, the photo and fitted maps take :func:`prepared_period` times
+    ``texels_per_pixel`` (the map's pixels per working pixel); the true relief always reads its own.
+    """
+    if period_source not in PERIOD_SOURCES:
+        raise ValueError(f"period source must be one of {', '.join(PERIOD_SOURCES)}, got {period_source!r}")
+    if period_source == "field" or source == "truth" or prepared_dir is None:
+        return None
+    period = prepared_period(prepared_dir)
+    return None if period is None else period * texels_per_pixel
 
 
 def load_normal_input(source: str, image_path: str | os.PathLike[str], source_dir: str | os.PathLike[str] | None,

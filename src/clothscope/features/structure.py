@@ -352,7 +352,17 @@ def lbp_histogram(field: np.ndarray, neighbours: int, radius: float) -> np.ndarr
     return counts / counts.sum()
 
 
-def structure_features(field: np.ndarray, settings: StructureSettings) -> tuple[dict[str, float], dict[str, Any]]:
+def with_period(lattice: Lattice, size: int, period_px: float | None) -> Lattice:
+    """``lattice`` with its fundamental set to ``size / period_px`` bins; unchanged without a period or when that
+    frequency lies outside the band a lattice peak may have (:data:`MIN_RADIUS_BINS` to 0.45 ``size``)."""
+    if period_px is None or not np.isfinite(period_px) or period_px <= 0:
+        return lattice
+    f0 = size / float(period_px)
+    return Lattice(lattice.peaks, f0, lattice.found) if MIN_RADIUS_BINS <= f0 <= 0.45 * size else lattice
+
+
+def structure_features(field: np.ndarray, settings: StructureSettings,
+                       period_px: float | None = None) -> tuple[dict[str, float], dict[str, Any]]:
     """The ``s_*`` columns of one field, and diagnostics (``f0``, period, lattice found, profile).
 
     Parameters
@@ -361,6 +371,9 @@ def structure_features(field: np.ndarray, settings: StructureSettings) -> tuple[
         2-D relief (height map), shading or luminance, any real values.
     settings
         Analysis window and peak test.
+    period_px
+        Thread period in the field's pixels measured elsewhere (:func:`with_period`); None: the
+        field's own fundamental.
 
     Returns
     -------
@@ -377,7 +390,7 @@ def structure_features(field: np.ndarray, settings: StructureSettings) -> tuple[
     """
     f = analysis_field(field, settings.border)
     s = spectrum(f)
-    lattice = find_lattice(s, settings)
+    lattice = with_period(find_lattice(s, settings), f.shape[0], period_px)
     profile = radial_profile(s, lattice.f0)
     features = {f"s_prof_{k}": float(v) for k, v in enumerate(profile, start=1)}
     features.update(lattice_features(s, lattice))
@@ -390,8 +403,8 @@ def structure_features(field: np.ndarray, settings: StructureSettings) -> tuple[
     return features, diagnostics
 
 
-def texture_columns(field: np.ndarray, settings: StructureSettings) -> dict[str, float]:
-    """The ``s_*``, ``w_*`` and ``lbp_*`` columns of one field.
+def texture_columns(field: np.ndarray, settings: StructureSettings, period_px: float | None = None) -> dict[str, float]:
+    """The ``s_*``, ``w_*`` and ``lbp_*`` columns of one field (``period_px``: as :func:`structure_features`).
 
     ``settings.lbp_scale`` says where the ``lbp_*`` histograms are taken:
     ``pixels``, the field as it is (the plain baseline; it moves with the
@@ -400,7 +413,7 @@ def texture_columns(field: np.ndarray, settings: StructureSettings) -> dict[str,
     """
     if settings.lbp_scale not in ("pixels", "canonical"):
         raise ValueError(f"lbp_scale must be 'pixels' or 'canonical', got {settings.lbp_scale!r}")
-    features, diagnostics = structure_features(field, settings)
+    features, diagnostics = structure_features(field, settings, period_px)
     rings = weave_rings(diagnostics["canonical"])
     return features | rings | lbp_baseline(diagnostics["canonical"] if settings.lbp_scale == "canonical" else field)
 

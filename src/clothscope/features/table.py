@@ -79,7 +79,7 @@ from clothscope.core.atomic import write_with
 from clothscope.features.extras import extra_features
 from clothscope.features.paper import SpectrumResult, SpectrumSettings, analyse_normal_map
 from clothscope.features.plots import plot_analysis, plot_placeholder
-from clothscope.features.sources import STATUS_OK, finite_number, load_normal_input, unusable_input
+from clothscope.features.sources import STATUS_OK, descriptor_period, finite_number, load_normal_input, unusable_input
 from clothscope.features.structure import (
     LBP_COLUMNS,
     SHADE_COLUMNS,
@@ -118,10 +118,11 @@ def tile_schema() -> pa.Schema:
     return pa.schema(fields, metadata={b"clothscope_version": __version__.encode()})
 
 
-def tile_rows(image_id: str, field: np.ndarray, structure: StructureSettings, tiles: TileSettings) -> list[dict[str, Any]]:
+def tile_rows(image_id: str, field: np.ndarray, structure: StructureSettings, tiles: TileSettings,
+              period_px: float | None = None) -> list[dict[str, Any]]:
     """One row per tile and view of the field (:func:`clothscope.features.tiles.tile_columns`); none without either."""
     return [{"image_id": str(image_id), "tile": k, **{name: finite_number(values[name], name) for name in TILE_FEATURES}}
-            for k, values in tile_columns(field, structure, tiles).items()]
+            for k, values in tile_columns(field, structure, tiles, period_px).items()]
 
 
 def tile_settings(tiles_config: dict[str, Any]) -> TileSettings:
@@ -148,9 +149,12 @@ def structure_settings(features_config: dict[str, Any]) -> StructureSettings:
 def row_settings(features_config: dict[str, Any], source: str | None = None) -> dict[str, Any]:
     """The part of a ``features:`` section that changes a row of ``source`` (of any source when None).
 
-    Everything but ``normal_source``; ``fitted_field`` only for the ``fitted`` source, ``photo_field`` only for ``photo``.
+    Everything but ``normal_source``; ``fitted_field`` only for the ``fitted`` source, ``photo_field`` only for ``photo``,
+    ``period_source`` not for ``truth``.
     """
     skipped = {"normal_source"}
+    if source == "truth":
+        skipped.add("period_source")
     if source not in (None, "fitted"):
         skipped.add("fitted_field")
     if source not in (None, "photo"):
@@ -235,13 +239,15 @@ def surface_features(normals: np.ndarray, result: SpectrumResult, texels_per_pix
 
 def compute_row(image_id: str, fabric_class: str | None, normals: np.ndarray, field: np.ndarray, roughness: float,
                 specular: float, settings: SpectrumSettings, structure: StructureSettings, extras: bool,
-                shade: np.ndarray | None = None, **provenance: Any) -> tuple[dict[str, Any], SpectrumResult]:
-    """:func:`feature_row` and the :class:`SpectrumResult` it came from (for the plot)."""
+                shade: np.ndarray | None = None, period_px: float | None = None,
+                **provenance: Any) -> tuple[dict[str, Any], SpectrumResult]:
+    """:func:`feature_row` and the :class:`SpectrumResult` it came from (for the plot); ``period_px``: the field's
+    thread period measured elsewhere (:func:`clothscope.features.structure.structure_features`)."""
     result = analyse_normal_map(normals, settings)
     extra = {}
     if extras:
         extra = extra_features(result) | surface_features(np.asarray(normals), result, float(provenance.get("texels_per_pixel", 1.0)))
-    described = texture_columns(field, structure) | shade_features(shade, structure)
+    described = texture_columns(field, structure, period_px) | shade_features(shade, structure)
     row = _row(image_id, fabric_class, settings, extras, provenance, roughness, specular, result.features, extra, described)
     return row, result
 
@@ -346,9 +352,10 @@ def read_table(path: str | os.PathLike[str]):
 
 def features_job(image_id: str, fabric_class: str | None, source: str, image_path: str, source_dir: str | None,
                  features_config: dict[str, Any], row_path: str, plot_path: str, log: Any = None,
-                 tiles_path: str | None = None) -> dict[str, Any]:
+                 tiles_path: str | None = None, prepared_dir: str | None = None) -> dict[str, Any]:
     """The ``features`` rule for one image: load its source, write the one-row Parquet, the plot and,
-    with ``tiles_path``, the rows of its tiles (none for an unusable image)."""
+    with ``tiles_path``, the rows of its tiles (none for an unusable image). ``prepared_dir``: the prepared
+    photo, whose thread period the photo and fitted maps' descriptor take with ``period_source: prepare``."""
     settings = spectrum_settings(features_config)
     structure = structure_settings(features_config)
     extras = bool(features_config["extras"])
@@ -361,9 +368,12 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
     row, result, tiles = None, None, []
     if loaded.status == STATUS_OK:
         try:
+            period = None if source == "truth" else descriptor_period(  # a truth row's settings lack period_source
+                source, prepared_dir, loaded.texels_per_pixel, features_config["period_source"])
             row, result = compute_row(image_id, fabric_class, loaded.normals, loaded.field, loaded.roughness,
-                                      loaded.specular, settings, structure, extras, loaded.shade, **provenance)
-            tiles = tile_rows(image_id, loaded.field, structure, tile_settings(features_config["tiles"])) if tiles_path else []
+                                      loaded.specular, settings, structure, extras, loaded.shade, period, **provenance)
+            tiles = tile_rows(image_id, loaded.field, structure, tile_settings(features_config["tiles"]),
+                              period) if tiles_path else []
         except ValueError as err:
             row, result, tiles = None, None, []
             loaded = unusable_input("failed", f"spectrum analysis: {err}", loaded.mitsuba_variant)

@@ -87,10 +87,20 @@ def view_fields(field: np.ndarray, border: float, tiles: TileSettings) -> list[n
     return views if all(min(v.shape) >= MIN_FIELD for v in views) else []
 
 
-def tile_columns(field: np.ndarray, settings: StructureSettings, tiles: TileSettings) -> dict[int, dict[str, float]]:
+def view_periods(period_px: float | None, tiles: TileSettings) -> list[float | None]:
+    """The thread period of each :func:`view_fields` view, from the field's: a turn keeps it, a zoom scales it."""
+    if period_px is None:
+        return [None] * (len(tiles.turns) + len(tiles.zooms))
+    return [period_px] * len(tiles.turns) + [period_px * z for z in tiles.zooms]
+
+
+def tile_columns(field: np.ndarray, settings: StructureSettings, tiles: TileSettings,
+                 period_px: float | None = None) -> dict[int, dict[str, float]]:
     """:func:`texture_columns` of each extra training row's field, by row number: the :func:`tile_fields`
-    as 0 .. grid^2 - 1, then the :func:`view_fields` from grid^2 on (the same numbers on every source)."""
+    as 0 .. grid^2 - 1, then the :func:`view_fields` from grid^2 on (the same numbers on every source).
+    ``period_px``: the field's thread period measured elsewhere (None: each row's own)."""
     inner = StructureSettings(0.0, settings.peak_threshold, settings.fundamental_fraction, settings.lbp_scale)
-    numbered = list(enumerate(tile_fields(field, settings.border, tiles)))
-    numbered += [(tiles.grid**2 + k, view) for k, view in enumerate(view_fields(field, settings.border, tiles))]
-    return {k: texture_columns(f, inner) for k, f in numbered}
+    numbered = [(k, f, period_px) for k, f in enumerate(tile_fields(field, settings.border, tiles))]
+    views = view_fields(field, settings.border, tiles)
+    numbered += [(tiles.grid**2 + k, view, p) for k, (view, p) in enumerate(zip(views, view_periods(period_px, tiles)))]
+    return {k: texture_columns(f, inner, p) for k, f, p in numbered}

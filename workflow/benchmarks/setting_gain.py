@@ -1,0 +1,70 @@
+"""Benchmark: what a setting changes in the feature-set report and the classifier of record, run by run.
+
+    .venv/bin/python workflow/benchmarks/setting_gain.py BEFORE:AFTER [BEFORE:AFTER ...] [--name setting_gain]
+
+Each argument pairs two results folders of the same images and fits: BEFORE made without the setting, AFTER
+a copy of it whose workflow reran with the setting's overlay (only the rules the setting reaches rerun; the fits
+are reused). Reads both folders' ``reports/feature_sets.csv`` and the classifier of record's
+``reports/fitted/accuracy.json`` and writes the images right before and after, per feature set and summed over
+the pairs, into ``results/bench/<name>.{csv,md}``. Nothing is chosen here.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import pandas as pd
+from harness import ROOT, publish, shown
+
+#: The row that holds the classifier of record (its figures come from ``reports/fitted/accuracy.json``).
+RECORD = "classifier of record"
+
+
+def run_scores(run: Path) -> pd.DataFrame:
+    """Images right and scored per feature set of one run, the classifier of record last."""
+    sets = pd.read_csv(run / "reports" / "feature_sets.csv")
+    sets = sets[sets["n"] > 0][["feature_set", "correct", "n"]]
+    record = json.loads((run / "reports" / "fitted" / "accuracy.json").read_text(encoding="utf-8"))
+    return pd.concat([sets, pd.DataFrame([{"feature_set": RECORD, "correct": record["correct"], "n": record["n"]}])],
+                     ignore_index=True)
+
+
+def pair_rows(before: Path, after: Path) -> pd.DataFrame:
+    """One row per feature set scored in both runs: images right before and after."""
+    joined = run_scores(before).merge(run_scores(after), on="feature_set", suffixes=("_before", "_after"))
+    if (joined["n_before"] != joined["n_after"]).any():
+        raise SystemExit(f"{shown(before)} and {shown(after)} scored different images: pair runs of the same images")
+    return pd.DataFrame({"run": shown(after), "feature_set": joined["feature_set"], "before": joined["correct_before"],
+                         "after": joined["correct_after"], "n": joined["n_before"]})
+
+
+def markdown(table: pd.DataFrame) -> str:
+    """Per run and feature set, then summed over the runs: images right before and after, and the change."""
+    lines = ["LOOCV images right without (before) and with (after) the setting, same images and fits; feature sets "
+             "as the `feature_sets` rule scores them, the classifier of record as the `classify` rule does.", "",
+             "| run | feature set | before | after | change |", "|---|---|---|---|---|"]
+    lines += [f"| `{r.run}` | {r.feature_set} | {r.before}/{r.n} | {r.after}/{r.n} | {r.after - r.before:+d} |"
+              for r in table.itertuples()]
+    total = table.groupby("feature_set", sort=False)[["before", "after", "n"]].sum()
+    lines += ["", "Summed over the runs:", "", "| feature set | before | after | change |", "|---|---|---|---|"]
+    lines += [f"| {name} | {r['before']}/{r['n']} | {r['after']}/{r['n']} | {r['after'] - r['before']:+d} |"
+              for name, r in total.iterrows()]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("pairs", nargs="+", help="BEFORE:AFTER results folders (paths under the repository root)")
+    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
+    parser.add_argument("--name", default="setting_gain")
+    args = parser.parse_args()
+    pairs = [pair.split(":") for pair in args.pairs]
+    if any(len(pair) != 2 for pair in pairs):
+        raise SystemExit("each pair is BEFORE:AFTER, two results folders joined by one colon")
+    table = pd.concat([pair_rows(ROOT / before, ROOT / after) for before, after in pairs], ignore_index=True)
+    publish(args.out, args.name, table, markdown(table))
+
+
+if __name__ == "__main__":
+    main()
