@@ -87,6 +87,18 @@ def publish(folder: Path, name: str, table: pd.DataFrame, text: str, float_forma
     print(text)
 
 
+def change_lines(table: pd.DataFrame, before: str, after: str) -> list[str]:
+    """Markdown tables of images right in columns ``before`` and ``after`` (of ``n``), per ``run`` and
+    ``feature_set`` and then summed over the runs, with the change."""
+    lines = [f"| run | feature set | {before} | {after} | change |", "|---|---|---|---|---|"]
+    lines += [f"| `{r['run']}` | {r['feature_set']} | {r[before]}/{r['n']} | {r[after]}/{r['n']} | {r[after] - r[before]:+d} |"
+              for _, r in table.iterrows()]
+    total = table.groupby("feature_set", sort=False)[[before, after, "n"]].sum()
+    lines += ["", "Summed over the runs:", "", f"| feature set | {before} | {after} | change |", "|---|---|---|---|"]
+    lines += [f"| {name} | {r[before]}/{r['n']} | {r[after]}/{r['n']} | {r[after] - r[before]:+d} |" for name, r in total.iterrows()]
+    return lines
+
+
 def runs_report(doc: str, name: str, runs_help: str, rows_of_run: Callable[..., list[dict]],
                 markdown: Callable[[pd.DataFrame], str], flags: tuple[tuple[str, str], ...] = ()) -> None:
     """The command line ``RUN [RUN ...] [--out DIR] [--name NAME]`` of a per-run benchmark: ``rows_of_run`` of every

@@ -81,13 +81,15 @@ def workflow_runs(results: Path) -> list[Run]:
         f".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{overlay}/holdout/samples.tsv results={r}/{overlay}/run"
         for overlay in ("confirm_1126", "holdout_1132", "holdout_1135"))
-    weaves, fresh, period, microscope, microscope_confirm, weaves_1131, microscope_1130, weaves_1134, microscope_1133 = (
+    (weaves, fresh, period, microscope, microscope_confirm, weaves_1131, microscope_1130, weaves_1134, microscope_1133,
+     weaves_1140, microscope_1141) = (
         f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
         for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh"), ("weaves_period", "weaves_period"),
                                 ("microscope", "microscope"), ("microscope_confirm", "microscope_confirm"),
                                 ("weaves_1131", "weaves_1131"), ("microscope_1130", "microscope_1130"),
-                                ("weaves_1134", "weaves_1134"), ("microscope_1133", "microscope_1133")))
+                                ("weaves_1134", "weaves_1134"), ("microscope_1133", "microscope_1133"),
+                                ("weaves_1140", "weaves_1140"), ("microscope_1141", "microscope_1141")))
     default_sheet = ROOT / "config" / "samples.tsv"
 
     def rendered_run(label: str, folder: str, images: str, command: str) -> Run:
@@ -110,6 +112,8 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1135", "holdout_1135", "holdout", confirm_1135),
         rendered_run("three weaves, sixth", "weaves_1134", "field", weaves_1134),
         rendered_run("microscope-like weaves, fourth", "microscope_1133", "field", microscope_1133),
+        rendered_run("three weaves, seventh", "weaves_1140", "field", weaves_1140),
+        rendered_run("microscope-like weaves, fifth", "microscope_1141", "field", microscope_1141),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -423,6 +427,11 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The weave rings in the fitted relief's sets, three fresh sets", ("bench/weave_rings_fitted.md",),
                         f"{py}/weave_rings.py results/microscope_1133/run results/weaves_1134/run results/holdout_1135/run "
                         "--name weave_rings_fitted"),
+        BenchmarkReport("The thread period from prepare, confirmation", ("bench/period_source.md",),
+                        f"{py}/setting_gain.py results/weaves_1140/run:results/weaves_1140_p/run "
+                        "results/microscope_1141/run:results/microscope_1141_p/run results:results/embedded_p/run "
+                        "--name period_source (each AFTER folder a copy of BEFORE rerun with "
+                        "config/overlays/period_prepare.yaml, docs/design.md)"),
         BenchmarkReport("Turned and zoomed views as extra training rows, screening", ("bench/views_gain.md",),
                         f"{py}/views_gain.py results results/weaves/run results/microscope/run"),
         BenchmarkReport("Tiles on the three-weave set of seed 20261203", ("bench/tiles_gain_weaves.md",),

@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, publish, shown
+from harness import ROOT, change_lines, publish, shown
 
 #: The row that holds the classifier of record (its figures come from ``reports/fitted/accuracy.json``).
 RECORD = "classifier of record"
@@ -43,13 +43,7 @@ def markdown(table: pd.DataFrame) -> str:
     """Per run and feature set, then summed over the runs: images right before and after, and the change."""
     lines = ["LOOCV images right without (before) and with (after) the setting, same images and fits; feature sets "
              "as the `feature_sets` rule scores them, the classifier of record as the `classify` rule does.", "",
-             "| run | feature set | before | after | change |", "|---|---|---|---|---|"]
-    lines += [f"| `{r.run}` | {r.feature_set} | {r.before}/{r.n} | {r.after}/{r.n} | {r.after - r.before:+d} |"
-              for r in table.itertuples()]
-    total = table.groupby("feature_set", sort=False)[["before", "after", "n"]].sum()
-    lines += ["", "Summed over the runs:", "", "| feature set | before | after | change |", "|---|---|---|---|"]
-    lines += [f"| {name} | {r['before']}/{r['n']} | {r['after']}/{r['n']} | {r['after'] - r['before']:+d} |"
-              for name, r in total.iterrows()]
+             *change_lines(table, "before", "after")]
     return "\n".join(lines) + "\n"
 
 

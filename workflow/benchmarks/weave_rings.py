@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 from class_subsets import classify_config
-from harness import record_inputs, run_tables, runs_report, shown
+from harness import change_lines, record_inputs, run_tables, runs_report, shown
 
 from clothscope.classify.feature_sets import RING_SOURCES, group_columns, usable
 from clothscope.classify.loocv import loocv
@@ -67,13 +67,7 @@ def markdown(table: pd.DataFrame) -> str:
     lines = [f"LOOCV images right without and with the weave rings `w_*`. Feature sets: whole images; the classifier "
              f"of record as the `classify` rule runs it (tiles included), its rings in the sets of "
              f"{', '.join(RING_SOURCES)} only.", "",
-             "| run | feature set | without | with | change |", "|---|---|---|---|---|"]
-    lines += [f"| `{r.run}` | {r.feature_set} | {r.without}/{r.n} | {r.with_}/{r.n} | {r.with_ - r.without:+d} |"
-              for r in table.rename(columns={"with": "with_"}).itertuples()]
-    total = table.groupby("feature_set", sort=False)[["without", "with", "n"]].sum()
-    lines += ["", "Summed over the runs:", "", "| feature set | without | with | change |", "|---|---|---|---|"]
-    lines += [f"| {name} | {r['without']}/{r['n']} | {r['with']}/{r['n']} | {r['with'] - r['without']:+d} |"
-              for name, r in total.iterrows()]
+             *change_lines(table, "without", "with")]
     return "\n".join(lines) + "\n"
 
 
