@@ -547,6 +547,15 @@ def keep_earlier(sections: list[str], earlier: dict[str, str]) -> list[str]:
     return kept
 
 
+def only_titles(sections: list[str], earlier: dict[str, str], titles: list[str]) -> list[str]:
+    """``sections`` with every one not named in ``titles`` (and present on the earlier page) as the earlier page has it."""
+    unknown = set(titles) - {section.splitlines()[0][3:] for section in sections[1:]}
+    if unknown:
+        raise SystemExit(f"no section titled {', '.join(sorted(unknown))!s}")
+    return [sections[0]] + [section if section.splitlines()[0][3:] in titles else earlier.get(section.splitlines()[0][3:], section)
+                            for section in sections[1:]]
+
+
 def results_page(sections: list[str]) -> str:
     """The whole of ``docs/results.md`` from its header and sections, with a table of contents."""
     contents = "\n".join(f"- {section.splitlines()[0][3:]}" for section in sections[1:])
@@ -562,11 +571,17 @@ def main() -> None:
     parser.add_argument("--keep-earlier", action="store_true",
                         help="where a section's file is missing here, keep that section as the page being replaced has it "
                              "(its source line still names the file and the date it was written)")
+    parser.add_argument("--only", nargs="+", metavar="TITLE", default=[],
+                        help="rewrite only the sections of these titles and keep every other as the page has it "
+                             "(for a machine that holds only some of the runs)")
     args = parser.parse_args()
     results, out = ROOT / args.results, ROOT / args.out
     sections = page_sections(results)
-    if args.keep_earlier and out.exists():
-        sections = keep_earlier(sections, earlier_sections(out.read_text(encoding="utf-8")))
+    earlier = earlier_sections(out.read_text(encoding="utf-8")) if out.exists() else {}
+    if args.keep_earlier:
+        sections = keep_earlier(sections, earlier)
+    if args.only:
+        sections = only_titles(sections, earlier, args.only)
     write_text(out, results_page(sections))
     print(f"wrote {shown(out)}")
 
