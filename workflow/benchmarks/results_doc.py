@@ -428,9 +428,11 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/weave_rings.py results/microscope_1133/run results/weaves_1134/run results/holdout_1135/run "
                         "--name weave_rings_fitted"),
         BenchmarkReport("The thread period from prepare, confirmation", ("bench/period_source.md",),
-                        f"{py}/setting_gain.py results/weaves_1140/run:results/weaves_1140_p/run --name period_source, "
-                        "where results/weaves_1140_p/run is a copy of the run whose photo and fitted feature rows were "
-                        "rerun with config/overlays/period_prepare.yaml (docs/design.md)"),
+                        "mkdir -p results/weaves_1140_p && cp -a results/weaves_1140/run results/weaves_1140_p/ && "
+                        "rm -r results/weaves_1140_p/run/features/photo results/weaves_1140_p/run/features/fitted && "
+                        ".venv/bin/snakemake --cores 2 --configfile config/config.yaml config/overlays/period_prepare.yaml "
+                        "--config samples=results/weaves_1140/field/samples.tsv results=results/weaves_1140_p/run && "
+                        f"{py}/setting_gain.py results/weaves_1140/run:results/weaves_1140_p/run --name period_source"),
         BenchmarkReport("Turned and zoomed views as extra training rows, screening", ("bench/views_gain.md",),
                         f"{py}/views_gain.py results results/weaves/run results/microscope/run"),
         BenchmarkReport("Tiles on the three-weave set of seed 20261203", ("bench/tiles_gain_weaves.md",),
