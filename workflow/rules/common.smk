@@ -116,7 +116,10 @@ def fit_normals_dir(image):
 def normal_source_inputs(source, image):
     """Files one image's features come from: its fit_normals folder and prepared photo, its prepared photo, or its image and ground truth."""
     if source == "fitted":
-        return {"normals": fit_normals_dir(image), "prepared": os.path.join(RESULTS, "prepared", image)}
+        return {
+            "normals": fit_normals_dir(image),
+            "prepared": os.path.join(RESULTS, "prepared", image),
+        }
     if source == "photo":
         return {"prepared": os.path.join(RESULTS, "prepared", image)}
     path = SAMPLES.loc[image, "path"]
