@@ -327,11 +327,17 @@ def test_the_descriptor_takes_the_period_prepare_measured_in_its_maps_pixels(tmp
     folder.mkdir()
     (folder / STATUS_FILE).write_text(json.dumps({"status": "accepted", "scale": {"working_period_px": 12.5}}))
     assert prepared_period(folder) == 12.5
+    assert descriptor_period("photo", folder, 1.0, "auto") is None  # no sizes recorded: the map's own
     assert descriptor_period("photo", folder, 1.0, "prepare") == 12.5
     assert descriptor_period("fitted", folder, 0.94, "prepare") == pytest.approx(12.5 * 0.94)  # texels per working pixel
     assert descriptor_period("fitted", folder, 0.94, "field") is None
     assert descriptor_period("truth", folder, 1.0, "prepare") is None and descriptor_period("photo", None, 1.0, "prepare") is None
-    with pytest.raises(ValueError, match="period source must be one of field, prepare"):
+    for side, expected in ((256, None), (1024, 12.5)):  # auto: prepare's period only where it saw more pixels than the map
+        status = {"status": "accepted", "scale": {"working_period_px": 12.5}, "source_size": [side, 2000],
+                  "settings": {"working_resolution": 256}}
+        (folder / STATUS_FILE).write_text(json.dumps(status))
+        assert descriptor_period("photo", folder, 1.0, "auto") == expected and descriptor_period("photo", folder, 1.0, "prepare") == 12.5
+    with pytest.raises(ValueError, match="period source must be one of field, prepare, auto"):
         descriptor_period("photo", folder, 1.0, "native")
     for scale in ({"method": "frame"}, {"working_period_px": None}, {"working_period_px": "NaN"}, {"working_period_px": -1}, None):
         (folder / STATUS_FILE).write_text(json.dumps({"status": "accepted", "scale": scale}))

@@ -1,21 +1,28 @@
 """Benchmark: what a setting changes in the feature-set report and the classifier of record, run by run.
 
     .venv/bin/python workflow/benchmarks/setting_gain.py BEFORE:AFTER [BEFORE:AFTER ...] [--name setting_gain]
+    .venv/bin/python workflow/benchmarks/setting_gain.py --rerun OVERLAY --drop features/photo features/fitted \
+        BEFORE:AFTER[:SHEET] ... [--name setting_gain]
 
 Each argument pairs two results folders of the same images and fits: BEFORE made without the setting, AFTER
 a copy of it whose workflow reran with the setting's overlay (only the rules the setting reaches rerun; the fits
 are reused). Reads both folders' ``reports/feature_sets.csv`` and the classifier of record's
 ``reports/fitted/accuracy.json`` and writes the images right before and after, per feature set and summed over
 the pairs, into ``results/bench/<name>.{csv,md}``. Nothing is chosen here.
+
+With ``--rerun OVERLAY``, each AFTER folder is first made here: BEFORE's ``prepared``, ``fit`` and ``features``
+copied in, the ``--drop`` paths under it removed (the outputs the setting changes), then the workflow run on it with
+``config/config.yaml`` and OVERLAY (and ``samples=SHEET`` where the pair names one). An existing AFTER is replaced.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, change_lines, publish, shown
+from harness import ROOT, change_lines, publish, shown, snakemake
 
 #: The row that holds the classifier of record (its figures come from ``reports/fitted/accuracy.json``).
 RECORD = "classifier of record"
@@ -39,6 +46,18 @@ def pair_rows(before: Path, after: Path) -> pd.DataFrame:
                          "after": joined["correct_after"], "n": joined["n_before"]})
 
 
+def rerun_with(before: Path, after: Path, overlay: Path, drop: list[str], sheet: str | None) -> None:
+    """Make ``after`` from ``before``'s prepared photos, fits and features less ``drop``, and run the workflow with ``overlay``."""
+    shutil.rmtree(after, ignore_errors=True)
+    after.mkdir(parents=True)
+    for folder in ("prepared", "fit", "features"):
+        shutil.copytree(before / folder, after / folder, symlinks=True)
+    for path in drop:
+        shutil.rmtree(after / path, ignore_errors=True)
+    config = [f"results={after.relative_to(ROOT)}", *([f"samples={sheet}"] if sheet else [])]
+    snakemake(["--configfile", "config/config.yaml", str(overlay), "--config", *config])
+
+
 def markdown(table: pd.DataFrame) -> str:
     """Per run and feature set, then summed over the runs: images right before and after, and the change."""
     lines = ["LOOCV images right without (before) and with (after) the setting, same images and fits; feature sets "
@@ -49,14 +68,20 @@ def markdown(table: pd.DataFrame) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("pairs", nargs="+", help="BEFORE:AFTER results folders (paths under the repository root)")
+    parser.add_argument("pairs", nargs="+", help="BEFORE:AFTER results folders (paths under the repository root), "
+                        "with --rerun also BEFORE:AFTER:SHEET (the sample sheet of a run not made from config/samples.tsv)")
+    parser.add_argument("--rerun", type=Path, help="config overlay: make each AFTER from BEFORE with it first")
+    parser.add_argument("--drop", nargs="*", default=[], help="with --rerun: paths under AFTER removed before the run")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     parser.add_argument("--name", default="setting_gain")
     args = parser.parse_args()
     pairs = [pair.split(":") for pair in args.pairs]
-    if any(len(pair) != 2 for pair in pairs):
-        raise SystemExit("each pair is BEFORE:AFTER, two results folders joined by one colon")
-    table = pd.concat([pair_rows(ROOT / before, ROOT / after) for before, after in pairs], ignore_index=True)
+    if any(len(pair) != 2 and not (args.rerun and len(pair) == 3) for pair in pairs):
+        raise SystemExit("each pair is BEFORE:AFTER, two results folders joined by one colon (with --rerun, :SHEET may follow)")
+    if args.rerun:
+        for before, after, *sheet in pairs:
+            rerun_with(ROOT / before, ROOT / after, args.rerun, args.drop, sheet[0] if sheet else None)
+    table = pd.concat([pair_rows(ROOT / before, ROOT / after) for before, after, *_ in pairs], ignore_index=True)
     publish(args.out, args.name, table, markdown(table))
 
 

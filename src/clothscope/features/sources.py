@@ -28,8 +28,9 @@ PHOTO_FIELDS = ("luminance", "shading")
 
 
 #: Where the structure descriptor of the photo and fitted maps takes its thread period from (``features.period_source``):
-#: each map's own lattice peaks, or the period ``prepare`` measured on the photo at native resolution.
-PERIOD_SOURCES = ("field", "prepare")
+#: each map's own lattice peaks, the period ``prepare`` measured on the photo at native resolution, or (``auto``) that
+#: period only where the photo is larger than the working image, so that prepare saw more pixels than the map holds.
+PERIOD_SOURCES = ("field", "prepare", "auto")
 
 
 #: Status of a usable row.
@@ -174,15 +175,20 @@ def load_photo(prepared_dir: str | os.PathLike[str], field: str) -> NormalInput:
         return unusable_input("failed", f"{folder}: {type(err).__name__}: {err}", "photo")
 
 
-def prepared_period(prepared_dir: str | os.PathLike[str]) -> float | None:
+def prepared_period(prepared_dir: str | os.PathLike[str], larger_photos_only: bool = False) -> float | None:
     """The thread period (working pixels) ``prepare`` measured on the photo (``scale.working_period_px`` of its
-    status record); None when it found no lattice, scaled the whole frame, or the record is unreadable."""
+    status record); None when it found no lattice, scaled the whole frame, or the record is unreadable.
+
+    With ``larger_photos_only``, also None unless the photo's shorter side (``source_size``) exceeds the working
+    resolution (``settings.working_resolution``): only then did prepare read the period from more pixels than the map.
+    """
     try:
         status = json.loads((Path(prepared_dir) / STATUS_FILE).read_text(encoding="utf-8"))
         period = float((status.get("scale") or {}).get("working_period_px"))
-    except (OSError, ValueError, TypeError, AttributeError):
+        larger = min(status["source_size"]) > status["settings"]["working_resolution"] if larger_photos_only else True
+    except (OSError, ValueError, TypeError, AttributeError, KeyError):
         return None
-    return period if math.isfinite(period) and period > 0 else None
+    return period if larger and math.isfinite(period) and period > 0 else None
 
 
 def descriptor_period(source: str, prepared_dir: str | os.PathLike[str] | None, texels_per_pixel: float,
@@ -190,13 +196,14 @@ def descriptor_period(source: str, prepared_dir: str | os.PathLike[str] | None, 
     """Thread period, in the pixels of ``source``'s map, that its structure descriptor takes; None: the map's own.
 
     With ``period_source`` ``prepare``, the photo and fitted maps take :func:`prepared_period` times
-    ``texels_per_pixel`` (the map's pixels per working pixel); the true relief always reads its own.
+    ``texels_per_pixel`` (the map's pixels per working pixel); with ``auto`` the same, only for photos larger than
+    the working image; the true relief always reads its own.
     """
     if period_source not in PERIOD_SOURCES:
         raise ValueError(f"period source must be one of {', '.join(PERIOD_SOURCES)}, got {period_source!r}")
     if period_source == "field" or source == "truth" or prepared_dir is None:
         return None
-    period = prepared_period(prepared_dir)
+    period = prepared_period(prepared_dir, larger_photos_only=period_source == "auto")
     return None if period is None else period * texels_per_pixel
 
 
