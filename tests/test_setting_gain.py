@@ -1,0 +1,45 @@
+"""setting_gain.py: the AFTER copy of a run, and the pairing of two runs' scores."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "workflow" / "benchmarks"))
+import setting_gain  # noqa: E402
+
+
+def write_run(run: Path, correct: dict[str, int], record: int, n: int = 10) -> None:
+    """A results folder with a feature-set report and a classifier-of-record accuracy."""
+    (run / "reports" / "fitted").mkdir(parents=True)
+    (run / "reports" / "feature_sets.csv").write_text(
+        "feature_set,correct,n\n" + "".join(f"{name},{k},{n}\n" for name, k in correct.items()), encoding="utf-8")
+    (run / "reports" / "fitted" / "accuracy.json").write_text(json.dumps({"correct": record, "n": n}), encoding="utf-8")
+
+
+def test_rerun_copies_the_fits_drops_what_the_setting_changes_and_runs_with_the_overlay(tmp_path, monkeypatch):
+    before, after = tmp_path / "run", tmp_path / "run_p"
+    for path in ("prepared/a/status.json", "fit/a/normals/state.json", "features/photo/a.parquet", "features/truth/a.parquet"):
+        (before / path).parent.mkdir(parents=True, exist_ok=True)
+        (before / path).write_text("x", encoding="utf-8")
+    (after / "stale").mkdir(parents=True)
+    calls = []
+    monkeypatch.setattr(setting_gain, "ROOT", tmp_path)
+    monkeypatch.setattr(setting_gain, "snakemake", lambda args: calls.append(args))
+    setting_gain.rerun_with(before, after, Path("config/overlays/x.yaml"), ["features/photo"], "sheet.tsv")
+    assert (after / "fit/a/normals/state.json").is_file() and (after / "features/truth/a.parquet").is_file()
+    assert not (after / "features/photo").exists() and not (after / "stale").exists()
+    assert calls == [["--configfile", "config/config.yaml", "config/overlays/x.yaml", "--config", "results=run_p", "samples=sheet.tsv"]]
+
+
+def test_pairs_are_scored_set_by_set_and_runs_of_other_images_are_refused(tmp_path):
+    write_run(tmp_path / "a", {"structure_photo": 6, "lbp_photo": 5}, record=7)
+    write_run(tmp_path / "b", {"structure_photo": 8, "lbp_photo": 5}, record=6)
+    rows = setting_gain.pair_rows(tmp_path / "a", tmp_path / "b").set_index("feature_set")
+    assert rows.loc["structure_photo", ["before", "after"]].tolist() == [6, 8]
+    assert rows.loc[setting_gain.RECORD, ["before", "after"]].tolist() == [7, 6]
+    write_run(tmp_path / "c", {"structure_photo": 8}, record=6, n=12)
+    with pytest.raises(SystemExit, match="scored different images"):
+        setting_gain.pair_rows(tmp_path / "a", tmp_path / "c")
