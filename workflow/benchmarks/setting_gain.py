@@ -1,7 +1,7 @@
 """Benchmark: what a setting changes in the feature-set report and the classifier of record, run by run.
 
     .venv/bin/python workflow/benchmarks/setting_gain.py BEFORE:AFTER [BEFORE:AFTER ...] [--name setting_gain]
-    .venv/bin/python workflow/benchmarks/setting_gain.py --rerun OVERLAY --drop features/photo features/fitted \
+    .venv/bin/python workflow/benchmarks/setting_gain.py --rerun OVERLAY --drop features/photo --drop features/fitted \
         BEFORE:AFTER[:SHEET] ... [--name setting_gain]
 
 Each argument pairs two results folders of the same images and fits: BEFORE made without the setting, AFTER
@@ -71,7 +71,7 @@ def main() -> None:
     parser.add_argument("pairs", nargs="+", help="BEFORE:AFTER results folders (paths under the repository root), "
                         "with --rerun also BEFORE:AFTER:SHEET (the sample sheet of a run not made from config/samples.tsv)")
     parser.add_argument("--rerun", type=Path, help="config overlay: make each AFTER from BEFORE with it first")
-    parser.add_argument("--drop", nargs="*", default=[], help="with --rerun: paths under AFTER removed before the run")
+    parser.add_argument("--drop", action="append", default=[], help="with --rerun: a path under AFTER removed before the run (repeat for more)")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     parser.add_argument("--name", default="setting_gain")
     args = parser.parse_args()
