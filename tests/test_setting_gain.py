@@ -43,3 +43,12 @@ def test_pairs_are_scored_set_by_set_and_runs_of_other_images_are_refused(tmp_pa
     write_run(tmp_path / "c", {"structure_photo": 8}, record=6, n=12)
     with pytest.raises(SystemExit, match="scored different images"):
         setting_gain.pair_rows(tmp_path / "a", tmp_path / "c")
+
+
+def test_rerun_refuses_a_before_run_without_fits_in_one_line(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(setting_gain, "ROOT", tmp_path)
+    monkeypatch.setattr(sys, "argv", ["setting_gain.py", "--rerun", "x.yaml", "empty:empty_p"])
+    (tmp_path / "empty" / "prepared").mkdir(parents=True)
+    with pytest.raises(SystemExit, match="empty:empty_p: empty has no fit, features folder to copy"):
+        setting_gain.main()
+    assert not (tmp_path / "empty_p").exists()

@@ -79,6 +79,11 @@ def main() -> None:
     if any(len(pair) != 2 and not (args.rerun and len(pair) == 3) for pair in pairs):
         raise SystemExit("each pair is BEFORE:AFTER, two results folders joined by one colon (with --rerun, :SHEET may follow)")
     if args.rerun:
+        for before, after, *_ in pairs:
+            missing = [folder for folder in ("prepared", "fit", "features") if not (ROOT / before / folder).is_dir()]
+            if missing or not (ROOT / after).resolve().is_relative_to(ROOT):
+                raise SystemExit(f"{before}:{after}: " + (f"{before} has no {', '.join(missing)} folder to copy" if missing
+                                                          else f"{after} is outside the repository"))
         for before, after, *sheet in pairs:
             rerun_with(ROOT / before, ROOT / after, args.rerun, args.drop, sheet[0] if sheet else None)
     table = pd.concat([pair_rows(ROOT / before, ROOT / after) for before, after, *_ in pairs], ignore_index=True)
