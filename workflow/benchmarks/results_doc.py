@@ -429,14 +429,14 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "--name weave_rings_fitted"),
         BenchmarkReport("The thread period from prepare, confirmation", ("bench/period_source.md",),
                         f"{py}/setting_gain.py --rerun config/overlays/period_prepare.yaml --drop features/photo --drop features/fitted "
-                        "results/weaves_1140/run:results/weaves_1140_p/run:results/weaves_1140/photos/samples.tsv "
-                        "results/microscope_1142/run:results/microscope_1142_p/run:results/microscope_1142/photos/samples.tsv "
+                        "results/weaves_1140/run:results/weaves_1140_p/run:results/weaves_1140/field/samples.tsv "
+                        "results/microscope_1142/run:results/microscope_1142_p/run:results/microscope_1142/field/samples.tsv "
                         "results:results/embedded_p/run --name period_source (results/microscope_1142 "
                         "on a GPU machine)"),
         BenchmarkReport("The thread period where the photo is larger than the working image, confirmation",
                         ("bench/period_auto.md",),
                         f"{py}/setting_gain.py --rerun config/overlays/period_auto.yaml --drop features/photo --drop features/fitted "
-                        "results/weaves_1143/run:results/weaves_1143_auto/run:results/weaves_1143/photos/samples.tsv "
+                        "results/weaves_1143/run:results/weaves_1143_auto/run:results/weaves_1143/field/samples.tsv "
                         "--name period_auto"),
         BenchmarkReport("Turned and zoomed views as extra training rows, screening", ("bench/views_gain.md",),
                         f"{py}/views_gain.py results results/weaves/run results/microscope/run"),
