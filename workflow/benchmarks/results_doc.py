@@ -535,6 +535,11 @@ def page_sections(results: Path) -> list[str]:
     return sections
 
 
+def section_title(section: str) -> str:
+    """The title of a ``## `` section (its first line without the marker)."""
+    return section.splitlines()[0][3:]
+
+
 def earlier_sections(page: str) -> dict[str, str]:
     """Title -> section text of a page this script wrote (its ``## `` sections)."""
     parts = ("\n" + page).split("\n## ")[1:]
@@ -548,23 +553,23 @@ def keep_earlier(sections: list[str], earlier: dict[str, str]) -> list[str]:
 
     kept = []
     for section in sections:
-        previous = earlier.get(section.splitlines()[0][3:], "")
+        previous = earlier.get(section_title(section), "")
         kept.append(previous if unmeasured(section) and previous and not unmeasured(previous) else section)
     return kept
 
 
 def only_titles(sections: list[str], earlier: dict[str, str], titles: list[str]) -> list[str]:
     """``sections`` with every one not named in ``titles`` (and present on the earlier page) as the earlier page has it."""
-    unknown = set(titles) - {section.splitlines()[0][3:] for section in sections[1:]}
+    unknown = set(titles) - {section_title(section) for section in sections[1:]}
     if unknown:
-        raise SystemExit(f"no section titled {', '.join(sorted(unknown))!s}")
-    return [sections[0]] + [section if section.splitlines()[0][3:] in titles else earlier.get(section.splitlines()[0][3:], section)
+        raise SystemExit(f"no section titled {', '.join(sorted(unknown))}")
+    return [sections[0]] + [section if section_title(section) in titles else earlier.get(section_title(section), section)
                             for section in sections[1:]]
 
 
 def results_page(sections: list[str]) -> str:
     """The whole of ``docs/results.md`` from its header and sections, with a table of contents."""
-    contents = "\n".join(f"- {section.splitlines()[0][3:]}" for section in sections[1:])
+    contents = "\n".join(f"- {section_title(section)}" for section in sections[1:])
     return "\n\n".join([sections[0], "Contents:\n\n" + contents, *sections[1:]]) + "\n"
 
 

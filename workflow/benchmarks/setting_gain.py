@@ -24,6 +24,8 @@ from pathlib import Path
 import pandas as pd
 from harness import ROOT, change_lines, publish, shown, snakemake
 
+#: The folders of BEFORE that ``--rerun`` copies into AFTER.
+COPIED = ("prepared", "fit", "features")
 #: The row that holds the classifier of record (its figures come from ``reports/fitted/accuracy.json``).
 RECORD = "classifier of record"
 
@@ -50,12 +52,21 @@ def rerun_with(before: Path, after: Path, overlay: Path, drop: list[str], sheet:
     """Make ``after`` from ``before``'s prepared photos, fits and features less ``drop``, and run the workflow with ``overlay``."""
     shutil.rmtree(after, ignore_errors=True)
     after.mkdir(parents=True)
-    for folder in ("prepared", "fit", "features"):
+    for folder in COPIED:
         shutil.copytree(before / folder, after / folder, symlinks=True)
     for path in drop:
         shutil.rmtree(after / path, ignore_errors=True)
     config = [f"results={after.relative_to(ROOT)}", *([f"samples={sheet}"] if sheet else [])]
     snakemake(["--configfile", "config/config.yaml", str(overlay), "--config", *config])
+
+
+def rerun_problem(before: str, after: str) -> str | None:
+    """Why the folder ``after`` cannot be made from ``before`` (paths under the repository root): a folder to copy is
+    missing, or ``after`` is outside the repository."""
+    missing = [folder for folder in COPIED if not (ROOT / before / folder).is_dir()]
+    if missing:
+        return f"{before} has no {', '.join(missing)} folder to copy"
+    return None if (ROOT / after).resolve().is_relative_to(ROOT) else f"{after} is outside the repository"
 
 
 def markdown(table: pd.DataFrame) -> str:
@@ -80,10 +91,8 @@ def main() -> None:
         raise SystemExit("each pair is BEFORE:AFTER, two results folders joined by one colon (with --rerun, :SHEET may follow)")
     if args.rerun:
         for before, after, *_ in pairs:
-            missing = [folder for folder in ("prepared", "fit", "features") if not (ROOT / before / folder).is_dir()]
-            if missing or not (ROOT / after).resolve().is_relative_to(ROOT):
-                raise SystemExit(f"{before}:{after}: " + (f"{before} has no {', '.join(missing)} folder to copy" if missing
-                                                          else f"{after} is outside the repository"))
+            if problem := rerun_problem(before, after):
+                raise SystemExit(f"{before}:{after}: {problem}")
         for before, after, *sheet in pairs:
             rerun_with(ROOT / before, ROOT / after, args.rerun, args.drop, sheet[0] if sheet else None)
     table = pd.concat([pair_rows(ROOT / before, ROOT / after) for before, after, *_ in pairs], ignore_index=True)

@@ -185,10 +185,11 @@ def prepared_period(prepared_dir: str | os.PathLike[str], larger_photos_only: bo
     try:
         status = json.loads((Path(prepared_dir) / STATUS_FILE).read_text(encoding="utf-8"))
         period = float((status.get("scale") or {}).get("working_period_px"))
-        larger = min(status["source_size"]) > status["settings"]["working_resolution"] if larger_photos_only else True
+        if larger_photos_only and min(status["source_size"]) <= status["settings"]["working_resolution"]:
+            return None
     except (OSError, ValueError, TypeError, AttributeError, KeyError):
         return None
-    return period if larger and math.isfinite(period) and period > 0 else None
+    return period if math.isfinite(period) and period > 0 else None
 
 
 def descriptor_period(source: str, prepared_dir: str | os.PathLike[str] | None, texels_per_pixel: float,
