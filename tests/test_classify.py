@@ -8,7 +8,16 @@ import pandas as pd
 import pytest
 from PIL import Image
 
-from clothscope.classify.loocv import LoocvResult, confusion_matrix, loocv, per_class_metrics, wilson_interval
+from clothscope.classify.loocv import (
+    Choice,
+    LoocvResult,
+    choose_columns,
+    confusion_matrix,
+    loocv,
+    per_class_metrics,
+    sign_test_p,
+    wilson_interval,
+)
 from clothscope.classify.model import ARRAYS_NAME, RECORD_NAME, QdaParameters, load_model, predict, save_model, train_model
 from clothscope.classify.qda import FlooredQDA, make_qda
 from clothscope.classify.reports import write_reports
@@ -127,6 +136,37 @@ def test_loocv_separable_gaussians_high_accuracy():
     assert result.per_class["support"].tolist() == [8, 8, 8]
     proba = posterior_matrix(result.predictions)
     assert np.isfinite(proba).all() and np.allclose(proba.sum(axis=1), 1.0)
+
+
+def test_sign_test_p_known_values():
+    assert sign_test_p(5, 0) == pytest.approx(1 / 32)
+    assert sign_test_p(0, 0) == 1.0
+    assert sign_test_p(3, 3) == pytest.approx(42 / 64)
+    with pytest.raises(ValueError, match="counts >= 0"):
+        sign_test_p(-1, 2)
+
+
+def test_choice_keeps_the_preferred_set_unless_another_beats_it_plainly():
+    table = gaussian_table({"a": 10, "b": 10, "c": 10}, n_features=4)  # f3 carries no class
+    candidates = {"all": ["f0", "f1", "f2"], "noise": ["f3"], "with_noise": ["f0", "f1", "f2", "f3"]}
+    best, scores = choose_columns(table, candidates)
+    assert best == "all" and scores["all"] > 0.9 > 0.6 > scores["noise"]
+    # as good as the best on the inner images: no evidence to leave it
+    assert choose_columns(table, candidates, choice=Choice("with_noise", 0.05))[0] == "with_noise"
+    # plainly worse: the best wins the sign test
+    assert choose_columns(table, candidates, choice=Choice("noise", 0.05))[0] == "all"
+    # a preferred set that is not a candidate leaves the best
+    assert choose_columns(table, candidates, choice=Choice("photo_texture", 0.05))[0] == "all"
+    result = loocv(table, [], select_from=candidates, choice=Choice("with_noise", 0.05))
+    assert result.selected == {"with_noise": 30} and result.accuracy > 0.9
+
+
+def test_choice_from_config_and_bad_alpha():
+    assert Choice.from_config({"prefer": "none", "alpha": 0.05}) == Choice(None, 0.05)
+    assert Choice.from_config({"prefer": "photo_texture", "alpha": 0.1}) == Choice("photo_texture", 0.1)
+    for alpha in (0, 1, float("nan"), "0.05"):
+        with pytest.raises(ValueError, match="alpha"):
+            Choice("lbp", alpha)
 
 
 def test_loocv_posteriors_come_from_a_model_without_the_image():

@@ -17,9 +17,8 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, publish, record_inputs, run_tables, validated_config
+from harness import ROOT, publish, record_inputs, record_loocv, run_tables, validated_config
 
-from clothscope.classify.loocv import loocv
 from clothscope.classify.paper_tables import PAPER_EXPERIMENTS
 
 
@@ -34,7 +33,7 @@ def scored_subsets(results: Path, label: str, settings: dict) -> list[dict]:
     rows = []
     for experiment in PAPER_EXPERIMENTS:
         subset = table[table["fabric_class"].isin(experiment.classes)]
-        result = loocv(subset, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles)
+        result = record_loocv(subset, candidates, tiles, settings)
         rows.append({"set": label, "experiment": experiment.name, "n": result.n, "correct": result.correct,
                      "accuracy": result.accuracy, "wilson_low": result.wilson_low, "wilson_high": result.wilson_high,
                      "chance": result.chance_uniform,

@@ -16,6 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 from clothscope.classify.feature_sets import classifier_candidates, joined_table, joined_tiles
+from clothscope.classify.loocv import Choice, LoocvResult, loocv
 from clothscope.core.atomic import write_text
 from clothscope.core.config import FIT_STAGES
 from clothscope.evaluate.accuracy import benchmark_seconds
@@ -57,6 +58,14 @@ def record_inputs(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.Dat
     joined = joined_table(sources)
     return (joined[joined["status"] == STATUS_OK], joined_tiles(sources, tile_tables),
             classifier_candidates(feature_set, "fitted", joined.columns))
+
+
+def record_loocv(rows: pd.DataFrame, candidates: dict[str, list[str]], tiles: pd.DataFrame | None, settings: dict,
+                 **options) -> LoocvResult:
+    """The classifier of record's LOOCV over ``rows`` with the config's ``classify`` ``settings`` (shrinkage, subspace,
+    choice); ``options`` go to :func:`clothscope.classify.loocv.loocv` (``score``, or ``choice`` to replace the config's)."""
+    options.setdefault("choice", Choice.from_config(settings["choice"]))
+    return loocv(rows, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles, **options)
 
 
 def write_sheet(images: list[str] | None, target: Path, source: Path = ROOT / "config" / "samples.tsv") -> Path:

@@ -48,7 +48,7 @@ from clothscope.classify.feature_sets import (
     joined_features,
     joined_tiles,
 )
-from clothscope.classify.loocv import choose_columns
+from clothscope.classify.loocv import Choice, choose_columns
 from clothscope.classify.model import predict, train_model
 from clothscope.core.config import schema_defaults
 from clothscope.core.imageio import decode_image, linear_to_srgb, write_png
@@ -110,7 +110,7 @@ def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], tr
         original = t_id.rsplit("__", 1)[0]
         others = frame[frame["image_id"] != original]
         candidates = candidates_of(feature_set, columns, settings)
-        chosen = choose_columns(others, candidates, reg, subspace, tiles)[0]
+        chosen = choose_columns(others, candidates, reg, subspace, tiles, choice=Choice.from_config(settings["choice"]))[0]
         model = train_model(others, candidates[chosen], reg, subspace, tiles)
         pair = pd.concat([frame[frame["image_id"] == original], t_frame[t_frame["image_id"] == t_id]], ignore_index=True)
         before, after = predict(model, pair)["predicted_class"]

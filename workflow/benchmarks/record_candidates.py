@@ -1,7 +1,7 @@
 """Benchmark: the classifier of record with and without the photo's own column sets among its candidates.
 
     .venv/bin/python workflow/benchmarks/record_candidates.py RUN [RUN ...] [--name record_candidates]
-        [--ensemble K ... | --criterion NAME ...]
+        [--ensemble K ... | --criterion NAME ... | --prefer SET ...]
 
 For each run folder, the fitted and photo feature tables are joined as the ``classify`` rule joins
 them, and the ``auto`` classifier of record is scored by the same LOOCV (a column set chosen inside
@@ -24,6 +24,10 @@ reproducible.
 ``tiebreak`` (accuracy, ties broken by ``logloss``) and ``repeated`` (accuracy over three
 repeats of the split). Measured against a rule written before scoring and rejected
 (``docs/design.md``).
+
+``--prefer SET ...`` scores the record with each ``classify.choice.prefer`` (``none``: the best inner
+accuracy; a candidate's name: that set unless the best beats it by the sign test of
+:class:`clothscope.classify.loocv.Choice`, at the config's ``classify.choice.alpha``).
 """
 from __future__ import annotations
 
@@ -34,10 +38,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from class_subsets import classify_config
-from harness import ROOT, publish, record_inputs, run_tables, shown
+from harness import ROOT, publish, record_inputs, record_loocv, run_tables, shown
 
-from clothscope.classify.feature_sets import PHOTO_GROUPS
-from clothscope.classify.loocv import choose_columns, inner_folds, loocv
+from clothscope.classify.feature_sets import AUTO_GROUPS, PHOTO_GROUPS
+from clothscope.classify.loocv import Choice, choose_columns, inner_folds
 from clothscope.classify.model import predict, train_model
 from clothscope.classify.rows import posterior_column, split_labelled
 
@@ -51,7 +55,7 @@ def run_rows(run: Path) -> list[dict]:
     settings = classify_config()
     rows = []
     for label, candidates in zip(LISTS, (without, everything)):
-        result = loocv(ok, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles)
+        result = record_loocv(ok, candidates, tiles, settings)
         chosen = ", ".join(f"{name} {count}" for name, count in sorted(result.selected.items(), key=lambda kv: -kv[1]))
         rows.append({"run": shown(run), "candidates": label,
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy, "folds_chose": chosen})
@@ -111,10 +115,24 @@ def criterion_rows(run: Path, criteria: list[str]) -> list[dict]:
     settings = classify_config()
     rows = []
     for criterion in criteria:
-        result = loocv(ok, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles,
-                       score=partial(inner_score, criterion=criterion))
+        result = record_loocv(ok, candidates, tiles, settings, score=partial(inner_score, criterion=criterion),
+                              choice=None)
         rows.append({"run": shown(run), "candidates": f"inner criterion: {criterion}"
                      + (" (the classifier of record)" if criterion == "accuracy" else ""),
+                     "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
+                     "folds_chose": ", ".join(f"{n} {c}" for n, c in sorted(result.selected.items(), key=lambda kv: -kv[1]))})
+    return rows
+
+
+def prefer_rows(run: Path, preferred: list[str]) -> list[dict]:
+    """LOOCV of the classifier of record with each preferred set (``none``: the best inner accuracy)."""
+    ok, tiles, candidates = record_inputs(*run_tables(run), "auto")
+    settings = classify_config()
+    rows = []
+    for prefer in preferred:
+        choice = Choice.from_config({**settings["choice"], "prefer": prefer})
+        result = record_loocv(ok, candidates, tiles, settings, choice=choice)
+        rows.append({"run": shown(run), "candidates": f"prefer {prefer} (alpha {choice.alpha:g})",
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
                      "folds_chose": ", ".join(f"{n} {c}" for n, c in sorted(result.selected.items(), key=lambda kv: -kv[1]))})
     return rows
@@ -129,19 +147,24 @@ def main() -> None:
                         help="score the posterior average of the K best candidates instead (K >= 1)")
     parser.add_argument("--criterion", nargs="+", choices=CRITERIA,
                         help="score these inner criteria for choosing each fold's set instead")
+    parser.add_argument("--prefer", nargs="+", choices=("none", *AUTO_GROUPS, "photo_structure", "plus_photo", *PHOTO_GROUPS),
+                        help="score the record with each of these classify.choice.prefer values (none or a set's name)")
     args = parser.parse_args()
     if args.ensemble and min(args.ensemble) < 1:
         parser.error("--ensemble sizes must be >= 1")
-    if args.ensemble and args.criterion:
-        parser.error("give --ensemble or --criterion, not both")
+    if sum(bool(option) for option in (args.ensemble, args.criterion, args.prefer)) > 1:
+        parser.error("give one of --ensemble, --criterion and --prefer")
     rows_of = run_rows
     if args.ensemble:
         rows_of = lambda run: ensemble_rows(run, sorted(set(args.ensemble)))  # noqa: E731
     elif args.criterion:
         rows_of = lambda run: criterion_rows(run, list(dict.fromkeys(args.criterion)))  # noqa: E731
+    elif args.prefer:
+        rows_of = lambda run: prefer_rows(run, list(dict.fromkeys(args.prefer)))  # noqa: E731
     table = pd.DataFrame([row for run in args.runs for row in rows_of(ROOT / run)])
     how = ("posteriors of the best K candidates averaged in each fold" if args.ensemble
-           else "column set chosen inside each fold" + (", by each inner criterion" if args.criterion else ""))
+           else "column set chosen inside each fold" + (", by each inner criterion" if args.criterion else "")
+           + (", by each preferred set" if args.prefer else ""))
     lines = [f"Classifier of record (LOOCV, {how}), by its candidate list:", "",
              "| run | candidates | correct | accuracy | the folds chose |", "|---|---|---|---|---|"]
     lines += [f"| `{r.run}` | {r.candidates} | {r.correct}/{r.images} | {r.accuracy:.1%} | {r.folds_chose} |"

@@ -15,10 +15,9 @@ from pathlib import Path
 
 import pandas as pd
 from class_subsets import classify_config
-from harness import record_inputs, run_tables, runs_report, shown
+from harness import record_inputs, record_loocv, run_tables, runs_report, shown
 
 from clothscope.classify.feature_sets import compare_feature_sets
-from clothscope.classify.loocv import loocv
 
 MODES = ("whole images", "with tiles")
 
@@ -26,7 +25,7 @@ MODES = ("whole images", "with tiles")
 def record_row(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.DataFrame] | None, settings: dict) -> dict:
     """The classifier of record's LOOCV on one run's fitted and photo tables (tiles or none)."""
     ok, tiles, candidates = record_inputs(tables, tile_tables, settings["feature_set"])
-    result = loocv(ok, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles)
+    result = record_loocv(ok, candidates, tiles, settings)
     return {"feature_set": "classifier of record", "correct": result.correct, "n": result.n}
 
 

@@ -13,10 +13,9 @@ from pathlib import Path
 
 import pandas as pd
 from class_subsets import classify_config
-from harness import record_inputs, run_tables, runs_report, shown, validated_config
+from harness import record_inputs, record_loocv, run_tables, runs_report, shown, validated_config
 
 from clothscope.classify.feature_sets import compare_feature_sets
-from clothscope.classify.loocv import loocv
 from clothscope.features.sources import STATUS_OK, load_normal_input
 from clothscope.features.table import structure_settings, tile_rows, tile_settings
 
@@ -47,7 +46,7 @@ def scored(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame], sett
     rows = [{"feature_set": r.feature_set, "correct": int(r.correct), "n": int(r.n)}
             for r in report[report["status"] == "ok"].itertuples() if not r.feature_set.endswith("truth")]
     ok, joined, candidates = record_inputs(tables, tiles, settings["feature_set"])
-    result = loocv(ok, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=joined)
+    result = record_loocv(ok, candidates, joined, settings)
     return rows + [{"feature_set": "classifier of record", "correct": result.correct, "n": result.n}]
 
 

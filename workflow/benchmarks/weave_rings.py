@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 from class_subsets import classify_config
-from harness import change_lines, record_inputs, run_tables, runs_report, shown
+from harness import change_lines, record_inputs, record_loocv, run_tables, runs_report, shown
 
 from clothscope.classify.feature_sets import RING_SOURCES, group_columns, usable
 from clothscope.classify.loocv import loocv
@@ -46,7 +46,7 @@ def set_rows(table: pd.DataFrame, source: str, group: str, settings: dict) -> di
 def record_row(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.DataFrame], settings: dict) -> dict:
     """The classifier of record (tiles included) with no rings, and with the rings of RING_SOURCES."""
     ok, tiles, candidates = record_inputs(tables, tile_tables or None, settings["feature_set"])
-    scores = {label: loocv(ok, [], settings["reg"], select_from=sets, subspace=settings["subspace"], tiles=tiles)
+    scores = {label: record_loocv(ok, sets, tiles, settings)
               for label, sets in (("without", {k: without_rings(v) for k, v in candidates.items()}), ("with", candidates))}
     return {"feature_set": "classifier of record", "without": scores["without"].correct, "with": scores["with"].correct,
             "n": scores["with"].n}

@@ -35,6 +35,7 @@ rule classify:
         subspace=config["classify"]["subspace"],
         physics=config["classify"]["physics"],
         feature_set=config["classify"]["feature_set"],
+        choice=config["classify"]["choice"],
         settings={key: config[key] for key in ("prepare", "fit", "features", "variant")},
     script:
         "../scripts/classify.py"

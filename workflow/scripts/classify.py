@@ -2,6 +2,7 @@
 import os
 
 from clothscope.classify.job import classify_job
+from clothscope.classify.loocv import Choice
 from clothscope.core.joblog import job_log
 
 tile_paths = {snakemake.wildcards.source: snakemake.input.tiles}
@@ -23,4 +24,5 @@ with job_log(snakemake.log[0], "classify") as log:
         comparison_csv=snakemake.input.get("comparison") or None,
         photo_table_path=snakemake.input.get("photo") or None,
         tile_paths=tile_paths,
+        choice=Choice.from_config(snakemake.params.choice),
     )

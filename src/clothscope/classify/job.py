@@ -21,7 +21,7 @@ import pandas as pd
 
 from clothscope import __version__
 from clothscope.classify.feature_sets import classifier_candidates, inverse_rendering_gain, joined_table, joined_tiles
-from clothscope.classify.loocv import choose_columns, loocv
+from clothscope.classify.loocv import Choice, choose_columns, loocv
 from clothscope.classify.model import predict, save_model, save_untrained, train_model
 from clothscope.classify.outputs import (
     ACCURACY_FILE,
@@ -75,7 +75,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
                  comparison_csv: str | os.PathLike[str] | None = None,
                  photo_table_path: str | os.PathLike[str] | None = None, subspace: str,
                  settings: dict[str, Any] | None = None,
-                 tile_paths: dict[str, str | os.PathLike[str]] | None = None) -> dict[str, Any]:
+                 tile_paths: dict[str, str | os.PathLike[str]] | None = None,
+                 choice: Choice | None = None) -> dict[str, Any]:
     """Run the classifier stage for one normal source.
 
     Parameters
@@ -109,6 +110,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     tile_paths
         Each source's tile table (``features/<source>/tiles/table.parquet``): extra training rows
         (:func:`clothscope.classify.feature_sets.joined_tiles`); without them, whole images only.
+    choice
+        How ``auto`` picks its set (:class:`clothscope.classify.loocv.Choice`; None: the best inner accuracy).
     """
     tables = {source: read_table(table_path)}
     if photo_table_path and source != "photo":
@@ -121,11 +124,11 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     provenance = _provenance(table)
     problems = []
     try:
-        result = loocv(ok, [], reg, select_from=candidates, subspace=subspace, tiles=tiles)
+        result = loocv(ok, [], reg, select_from=candidates, subspace=subspace, tiles=tiles, choice=choice)
     except ValueError as err:  # too few labelled classes or images: no scores, the run goes on
         result, problems = None, [f"LOOCV not run: {str(err).splitlines()[0]}"]
     try:
-        chosen = choose_columns(ok, candidates, reg, subspace, tiles)[0]
+        chosen = choose_columns(ok, candidates, reg, subspace, tiles, choice=choice)[0]
         model = train_model(ok, candidates[chosen], reg, subspace, tiles)
     except ValueError as err:
         model = None

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy.stats import binomtest
 from sklearn.model_selection import RepeatedStratifiedKFold, StratifiedKFold
 
 from clothscope.classify.model import predict, train_model
@@ -124,14 +125,58 @@ def inner_folds(table: pd.DataFrame, columns: list[str], reg: float | str, subsp
         yield fit_qda(reg, *with_tiles(X[train], y[train], ids[train], tiles, used), notes, subspace), X[test], y[test]
 
 
+def inner_hits(table: pd.DataFrame, columns: list[str], reg: float | str, subspace: str,
+               tiles: pd.DataFrame | None) -> np.ndarray:
+    """1 for each image of :func:`inner_folds` (one split, in fold order) its fold's model classifies right, else 0.
+
+    The split depends on the labels only, so two column sets' hits pair image by image.
+    """
+    return np.concatenate([(model.predict(X) == y).astype(int)
+                           for model, X, y in inner_folds(table, columns, reg, subspace, tiles)])
+
+
 def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto", subspace: str = "none",
                    tiles: pd.DataFrame | None = None) -> float:
     """Accuracy of :func:`make_qda` over the folds of :func:`inner_folds` (whole images scored)."""
-    correct = scored = 0
-    for model, X, y in inner_folds(table, columns, reg, subspace, tiles):
-        correct += int((model.predict(X) == y).sum())
-        scored += len(y)
-    return correct / scored
+    return float(inner_hits(table, columns, reg, subspace, tiles).mean())
+
+
+def sign_test_p(wins: int, losses: int) -> float:
+    """One-sided sign test: the chance of at least ``wins`` heads in ``wins + losses`` fair coin flips (1 for none)."""
+    if wins < 0 or losses < 0:
+        raise ValueError(f"sign_test_p needs counts >= 0, got wins={wins}, losses={losses}")
+    return float(binomtest(wins, wins + losses, 0.5, alternative="greater").pvalue) if wins + losses else 1.0
+
+
+@dataclass(frozen=True)
+class Choice:
+    """How :func:`choose_columns` picks among candidate column sets.
+
+    Without ``prefer`` (None), the set with the best inner accuracy. With it,
+    the ``prefer`` set unless the best one classifies more of the inner
+    images that the two disagree on, by a one-sided sign test at ``alpha``
+    (:func:`sign_test_p`); a ``prefer`` that is not among the candidates
+    leaves the best one. Built from the config by :meth:`from_config`.
+    """
+
+    prefer: str | None
+    alpha: float
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.alpha, (int, float)) and 0 < self.alpha < 1):
+            raise ValueError(f"choice alpha must be a number in (0, 1), got {self.alpha!r}")
+
+    @classmethod
+    def from_config(cls, section: dict[str, Any]) -> Choice:
+        """From the config's ``classify.choice`` (``prefer: none`` is no preferred set)."""
+        return cls(None if section["prefer"] == "none" else str(section["prefer"]), float(section["alpha"]))
+
+
+def evident_gain(table: pd.DataFrame, winner: list[str], kept: list[str], alpha: float, reg: float | str,
+                 subspace: str, tiles: pd.DataFrame | None) -> bool:
+    """Whether the ``winner`` columns classify the inner images better than the ``kept`` ones (sign test < ``alpha``)."""
+    won, held = inner_hits(table, winner, reg, subspace, tiles), inner_hits(table, kept, reg, subspace, tiles)
+    return sign_test_p(int((won > held).sum()), int((won < held).sum())) < alpha
 
 
 def _distinct_candidates(table: pd.DataFrame, candidates: dict[str, list[str]]) -> dict[str, list[str]]:
@@ -162,9 +207,10 @@ InnerScore = Callable[..., Any]
 
 def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str = "auto",
                    subspace: str = "none", tiles: pd.DataFrame | None = None,
-                   score: InnerScore = inner_accuracy) -> tuple[str, dict[str, Any]]:
+                   score: InnerScore = inner_accuracy, choice: Choice | None = None) -> tuple[str, dict[str, Any]]:
     """The candidate column set with the highest ``score`` (:func:`inner_accuracy` by default) on ``table``
-    (ties: the first listed), and every score.
+    (ties: the first listed), or ``choice.prefer`` where the best does not beat it plainly (:class:`Choice`; None:
+    the best), and every score.
 
     A single candidate is returned as it is, unscored.
 
@@ -187,12 +233,17 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
     if not scores:
         raise ValueError(f"no candidate feature set could be scored ({'; '.join(problems)})")
     order = list(candidates)
-    return max(scores, key=lambda name: (scores[name], -order.index(name))), scores
+    best = max(scores, key=lambda name: (scores[name], -order.index(name)))
+    if choice is not None and choice.prefer in scores and best != choice.prefer and not evident_gain(
+            table, candidates[best], candidates[choice.prefer], choice.alpha, reg, subspace, tiles):
+        return choice.prefer, scores
+    return best, scores
 
 
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
           select_from: dict[str, list[str]] | None = None, subspace: str = "none",
-          tiles: pd.DataFrame | None = None, score: InnerScore = inner_accuracy) -> LoocvResult:
+          tiles: pd.DataFrame | None = None, score: InnerScore = inner_accuracy,
+          choice: Choice | None = None) -> LoocvResult:
     """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
 
     Each labelled image is classified by a model fitted (scaler included) on
@@ -219,8 +270,8 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
     tiles
         Tile rows (:func:`clothscope.classify.feature_sets.joined_tiles`): each fold also trains on the
         tiles of its training images, never on those of the image it scores, which is scored by its own row.
-    score
-        The inner score :func:`choose_columns` chooses by (with ``select_from``).
+    score, choice
+        The inner score :func:`choose_columns` chooses by, and how (with ``select_from``).
 
     Returns
     -------
@@ -249,7 +300,7 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         train = np.arange(n) != i
         if select_from:
             rows = labelled.iloc[np.flatnonzero(train)]
-            name, _ = choose_columns(rows, select_from, reg, subspace, tiles, score)
+            name, _ = choose_columns(rows, select_from, reg, subspace, tiles, score, choice)
             selected[name] = selected.get(name, 0) + 1
             model = train_model(rows, select_from[name], reg, subspace, tiles)
             if model.classes != classes:
