@@ -417,11 +417,16 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Classifier of record: a preferred set left only on evidence, screening",
                         ("bench/record_prefer_screening.md",),
                         f"{py}/record_candidates.py results results/weaves_1140/run results/microscope_1142/run "
-                        "results/weaves_1143/run --prefer none photo_texture --name record_prefer_screening"),
-        BenchmarkReport("Classifier of record: a preferred set left only on evidence, confirmation",
+                        "results/weaves_1143/run results/weaves_1144/run --prefer none photo_texture photo_structure "
+                        "--name record_prefer_screening"),
+        BenchmarkReport("Classifier of record: a preferred set left only on evidence, first confirmation",
                         ("bench/record_prefer_confirmation.md",),
                         f"{py}/record_candidates.py results/weaves_1144/run --prefer none photo_texture "
                         "--name record_prefer_confirmation"),
+        BenchmarkReport("Classifier of record: a preferred set left only on evidence, second confirmation",
+                        ("bench/record_prefer_second.md",),
+                        f"{py}/record_candidates.py results/weaves_1145/run --prefer none photo_structure "
+                        "--name record_prefer_second"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
