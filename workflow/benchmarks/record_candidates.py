@@ -40,12 +40,17 @@ import pandas as pd
 from class_subsets import classify_config
 from harness import ROOT, publish, record_inputs, record_loocv, run_tables, shown
 
-from clothscope.classify.feature_sets import AUTO_GROUPS, PHOTO_GROUPS
+from clothscope.classify.feature_sets import PHOTO_GROUPS
 from clothscope.classify.loocv import Choice, choose_columns, inner_folds
 from clothscope.classify.model import predict, train_model
 from clothscope.classify.rows import posterior_column, split_labelled
+from clothscope.core.config import SCHEMA_PATH
+from clothscope.core.schema import load_schema
 
 LISTS = ("without the photo's own sets", "with them (default)")
+#: the values of ``classify.choice.prefer`` (the config schema's enum)
+PREFER_CHOICES = tuple(load_schema(SCHEMA_PATH)
+                       ["properties"]["classify"]["properties"]["choice"]["properties"]["prefer"]["enum"])
 
 
 def run_rows(run: Path) -> list[dict]:
@@ -147,7 +152,7 @@ def main() -> None:
                         help="score the posterior average of the K best candidates instead (K >= 1)")
     parser.add_argument("--criterion", nargs="+", choices=CRITERIA,
                         help="score these inner criteria for choosing each fold's set instead")
-    parser.add_argument("--prefer", nargs="+", choices=("none", *AUTO_GROUPS, "photo_structure", "plus_photo", *PHOTO_GROUPS),
+    parser.add_argument("--prefer", nargs="+", choices=PREFER_CHOICES,
                         help="score the record with each of these classify.choice.prefer values (none or a set's name)")
     args = parser.parse_args()
     if args.ensemble and min(args.ensemble) < 1:

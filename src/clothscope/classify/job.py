@@ -145,8 +145,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         accuracy_line = "; ".join(problems) + "."
     if result is not None and result.selected:
         accuracy_line += " Sets the folds chose: " + ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1])) + "."
-    if result is not None and result.selected and choice is not None and choice.prefer:
-        accuracy_line += f" Preferred set `{choice.prefer}`, left only where a sign test at alpha {choice.alpha:g} said so."
+        if choice is not None and choice.prefer:
+            accuracy_line += f" Preferred set `{choice.prefer}`, left only where a sign test at alpha {choice.alpha:g} said so."
     if model is not None:
         accuracy_line += f" The model for new photos uses `{chosen}`."
     write_summary(reports_dir, title, feature_set, accuracy_line, versus_photo_line(comparison_csv, source))

@@ -135,12 +135,6 @@ def inner_hits(table: pd.DataFrame, columns: list[str], reg: float | str, subspa
                            for model, X, y in inner_folds(table, columns, reg, subspace, tiles)])
 
 
-def inner_accuracy(table: pd.DataFrame, columns: list[str], reg: float | str = "auto", subspace: str = "none",
-                   tiles: pd.DataFrame | None = None) -> float:
-    """Accuracy of :func:`make_qda` over the folds of :func:`inner_folds` (whole images scored)."""
-    return float(inner_hits(table, columns, reg, subspace, tiles).mean())
-
-
 def sign_test_p(wins: int, losses: int) -> float:
     """One-sided sign test: the chance of at least ``wins`` heads in ``wins + losses`` fair coin flips (1 for none)."""
     if wins < 0 or losses < 0:
@@ -172,10 +166,8 @@ class Choice:
         return cls(None if section["prefer"] == "none" else str(section["prefer"]), float(section["alpha"]))
 
 
-def evident_gain(table: pd.DataFrame, winner: list[str], kept: list[str], alpha: float, reg: float | str,
-                 subspace: str, tiles: pd.DataFrame | None) -> bool:
-    """Whether the ``winner`` columns classify the inner images better than the ``kept`` ones (sign test < ``alpha``)."""
-    won, held = inner_hits(table, winner, reg, subspace, tiles), inner_hits(table, kept, reg, subspace, tiles)
+def evident_gain(won: np.ndarray, held: np.ndarray, alpha: float) -> bool:
+    """Whether the hits ``won`` beat the paired hits ``held`` (:func:`inner_hits`) by a sign test at ``alpha``."""
     return sign_test_p(int((won > held).sum()), int((won < held).sum())) < alpha
 
 
@@ -207,8 +199,8 @@ InnerScore = Callable[..., Any]
 
 def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str = "auto",
                    subspace: str = "none", tiles: pd.DataFrame | None = None,
-                   score: InnerScore = inner_accuracy, choice: Choice | None = None) -> tuple[str, dict[str, Any]]:
-    """The candidate column set with the highest ``score`` (:func:`inner_accuracy` by default) on ``table``
+                   score: InnerScore | None = None, choice: Choice | None = None) -> tuple[str, dict[str, Any]]:
+    """The candidate column set with the highest ``score`` (None: the accuracy of :func:`inner_hits`) on ``table``
     (ties: the first listed), or ``choice.prefer`` where the best does not beat it plainly (:class:`Choice`; None:
     the best), and every score.
 
@@ -223,11 +215,18 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
         if not candidates:
             raise ValueError("no candidate feature set to choose from")
         return next(iter(candidates)), {}
+    hits: dict[str, np.ndarray] = {}  # each candidate's inner hits, computed once
+
+    def hits_of(name: str) -> np.ndarray:
+        if name not in hits:
+            hits[name] = inner_hits(table, candidates[name], reg, subspace, tiles)
+        return hits[name]
+
     scores: dict[str, Any] = {}
     problems = []
     for name, columns in _distinct_candidates(table, candidates).items():
         try:
-            scores[name] = score(table, columns, reg, subspace, tiles)
+            scores[name] = float(hits_of(name).mean()) if score is None else score(table, columns, reg, subspace, tiles)
         except ValueError as err:
             problems.append(f"{name}: {str(err).splitlines()[0]}")
     if not scores:
@@ -235,14 +234,14 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
     order = list(candidates)
     best = max(scores, key=lambda name: (scores[name], -order.index(name)))
     if choice is not None and choice.prefer in scores and best != choice.prefer and not evident_gain(
-            table, candidates[best], candidates[choice.prefer], choice.alpha, reg, subspace, tiles):
+            hits_of(best), hits_of(choice.prefer), choice.alpha):
         return choice.prefer, scores
     return best, scores
 
 
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
           select_from: dict[str, list[str]] | None = None, subspace: str = "none",
-          tiles: pd.DataFrame | None = None, score: InnerScore = inner_accuracy,
+          tiles: pd.DataFrame | None = None, score: InnerScore | None = None,
           choice: Choice | None = None) -> LoocvResult:
     """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
 
