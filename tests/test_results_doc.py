@@ -45,3 +45,40 @@ def test_only_the_named_sections_are_rewritten_and_a_new_one_is_added():
     assert kept == [fresh[0], "## Speed\n\nSource: `results/bench/speed.md` (2026-11-20).\n\n12 s", fresh[2], fresh[3]]
     with pytest.raises(SystemExit, match="no section titled Nothing"):
         results_doc.only_titles(fresh, earlier, ["Nothing"])
+
+
+def _runs(tmp_path: Path) -> list:
+    """Two runs: ``here`` has reports on this machine, ``away`` does not."""
+    return [results_doc.Run(label, tmp_path / label, tmp_path / label / "samples.tsv", f"make {label}")
+            for label in ("here", "away")]
+
+
+def test_runs_whose_reports_are_not_here_keep_their_earlier_rows(tmp_path):
+    here, away = _runs(tmp_path)
+    (here.folder / "reports" / "fitted").mkdir(parents=True)
+    (here.folder / "reports" / "fitted" / "accuracy.json").write_text(
+        '{"correct": 9, "n": 10, "accuracy": 0.9, "wilson_low": 0.6, "wilson_high": 0.98, "chance_uniform": 0.5,'
+        ' "selected_feature_sets": {"photo_structure": 10}}', encoding="utf-8")
+    earlier = (f"## Classifier of record (LOOCV)\n\nSource: `{results_doc.shown(here.folder)}/reports/fitted/accuracy.json` "
+               f"(2026-11-01), `{results_doc.shown(away.folder)}/reports/fitted/accuracy.json` (2026-11-02).\n\n"
+               "| run | source | correct |\n|---|---|---|\n| here | fitted | 1/10 |\n| away | fitted | 7/8 |")
+    section = results_doc.classifier_section([here, away], earlier)
+    assert "| here | fitted | 9/10 | 90.0% |" in section and "1/10" not in section
+    assert "| away | fitted | 7/8 |" in section and "not measured" not in section
+    assert f"`{results_doc.shown(away.folder)}/reports/fitted/accuracy.json` (2026-11-02)." in section
+    assert "not measured: run `make away`" in results_doc.classifier_section([here, away])
+
+
+def test_runs_whose_reports_are_not_here_keep_their_earlier_columns(tmp_path):
+    here, away = _runs(tmp_path)
+    (here.folder / "reports").mkdir(parents=True)
+    (here.folder / "reports" / "feature_sets.csv").write_text(
+        "feature_set,description,status,accuracy,correct,n\nstructure_photo,photo structure,ok,0.5,5,10\n", encoding="utf-8")
+    (here.folder / "reports" / "feature_sets.md").write_text("Inverse rendering cost 10 points.\n", encoding="utf-8")
+    earlier = ("## Feature sets side by side\n\nSource: x.\n\n- away: Inverse rendering bought 3 points.\n\n"
+               "| feature set | what | here | away |\n|---|---|---|---|\n"
+               "| `structure_photo` | photo structure | 1.0% (1/10) | 75.0% (6/8) |\n| `paper_truth` | truth | - | 50.0% (4/8) |")
+    section = results_doc.feature_sets_section([here, away], earlier)
+    assert "| `structure_photo` | photo structure | 50.0% (5/10) | 75.0% (6/8) |" in section
+    assert "| `paper_truth` | truth | - | 50.0% (4/8) |" in section
+    assert "- here: Inverse rendering cost 10 points.\n- away: Inverse rendering bought 3 points." in section

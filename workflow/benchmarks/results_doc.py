@@ -9,13 +9,17 @@ reports, and the only arithmetic is the median and maximum of Snakemake's
 per-job benchmark files. Relative paths are taken from the repository root.
 With ``--keep-earlier`` a section whose file is missing on this machine keeps
 the measured text of the page being replaced (its source line names the file
-and the date it was written), so one new benchmark does not erase the others.
+and the date it was written), so one new benchmark does not erase the others;
+with it or ``--only``, the sections that compare runs (runs, classifier of
+record, feature sets, fit accuracy) keep the rows and columns of runs whose
+reports are not on this machine in the same way.
 """
 from __future__ import annotations
 
 import argparse
 import csv
 import json
+import re
 import statistics
 from collections import defaultdict
 from dataclasses import dataclass
@@ -56,9 +60,42 @@ def written_on(path: Path) -> str:
     return datetime.fromtimestamp(path.stat().st_mtime, tz=timezone.utc).strftime("%Y-%m-%d")
 
 
+def source_entry(path: Path) -> str:
+    """A file named with the date it was written: ```path` (YYYY-MM-DD)``."""
+    return f"`{shown(path)}` ({written_on(path)})"
+
+
 def source_note(paths: list[Path]) -> str:
     """One line naming the files a section's figures come from, with their dates."""
-    return "Source: " + ", ".join(f"`{shown(p)}` ({written_on(p)})" for p in paths) + "."
+    return source_line([source_entry(path) for path in paths])
+
+
+def source_line(entries: list[str]) -> str:
+    """The ``Source:`` line of a section from its entries (:func:`source_entry`)."""
+    return "Source: " + ", ".join(entries) + "."
+
+
+def earlier_sources(section: str, run: Run) -> list[str]:
+    """The entries of an earlier section's ``Source:`` line that name files of ``run``'s reports."""
+    line = next((line for line in section.splitlines() if line.startswith("Source: ")), "")
+    prefix = f"`{shown(run.folder / 'reports')}/"
+    return [entry for entry in re.findall(r"`[^`]+` \([^)]*\)", line) if entry.startswith(prefix)]
+
+
+def earlier_rows(section: str, label: str) -> list[list[str]]:
+    """The rows of an earlier section's first table whose first cell is ``label`` (a run's row kept from that page)."""
+    tables = markdown_tables(section)
+    return [row for row in tables[0][1:] if row and row[0] == label] if tables else []
+
+
+def earlier_column(section: str, label: str, fixed: int) -> dict[tuple[str, ...], str]:
+    """A run's column of an earlier section's first table, whose first ``fixed`` columns name the row:
+    those cells -> the cell under ``label`` (empty when no column is headed ``label``)."""
+    tables = markdown_tables(section)
+    if not tables or label not in tables[0][0][fixed:]:
+        return {}
+    column = tables[0][0].index(label, fixed)
+    return {tuple(row[:fixed]): row[column] for row in tables[0][1:] if len(row) > column}
 
 
 def not_measured(command: str) -> str:
@@ -77,19 +114,22 @@ def workflow_runs(results: Path) -> list[Run]:
              f"--config samples={r}/field/samples.tsv results={r}/field/run")
     albedo = (".venv/bin/snakemake --cores 2 --configfile config/config.yaml config/overlays/colour_texture.yaml "
               f"--config results={r}/exp_albedo")
-    confirm, confirm_1132, confirm_1135 = (
+    confirm, confirm_1132, confirm_1135, confirm_1147 = (
         f".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{overlay}/holdout/samples.tsv results={r}/{overlay}/run"
-        for overlay in ("confirm_1126", "holdout_1132", "holdout_1135"))
+        for overlay in ("confirm_1126", "holdout_1132", "holdout_1135", "holdout_1147"))
     (weaves, fresh, period, microscope, microscope_confirm, weaves_1131, microscope_1130, weaves_1134, microscope_1133,
-     weaves_1140, microscope_1141) = (
+     weaves_1140, microscope_1141, microscope_1142, weaves_1143, weaves_1144, weaves_1145, microscope_1148) = (
         f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
         for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh"), ("weaves_period", "weaves_period"),
                                 ("microscope", "microscope"), ("microscope_confirm", "microscope_confirm"),
                                 ("weaves_1131", "weaves_1131"), ("microscope_1130", "microscope_1130"),
                                 ("weaves_1134", "weaves_1134"), ("microscope_1133", "microscope_1133"),
-                                ("weaves_1140", "weaves_1140"), ("microscope_1141", "microscope_1141")))
+                                ("weaves_1140", "weaves_1140"), ("microscope_1141", "microscope_1141"),
+                                ("microscope_1142", "microscope_1142"), ("weaves_1143", "weaves_1143"),
+                                ("weaves_1144", "weaves_1144"), ("weaves_1145", "weaves_1145"),
+                                ("microscope_1148", "microscope_1148")))
     default_sheet = ROOT / "config" / "samples.tsv"
 
     def rendered_run(label: str, folder: str, images: str, command: str) -> Run:
@@ -114,6 +154,12 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("microscope-like weaves, fourth", "microscope_1133", "field", microscope_1133),
         rendered_run("three weaves, seventh", "weaves_1140", "field", weaves_1140),
         rendered_run("microscope-like weaves, fifth", "microscope_1141", "field", microscope_1141),
+        rendered_run("microscope-like weaves 1142", "microscope_1142", "field", microscope_1142),
+        rendered_run("three weaves 1143", "weaves_1143", "field", weaves_1143),
+        rendered_run("three weaves 1144", "weaves_1144", "field", weaves_1144),
+        rendered_run("three weaves 1145", "weaves_1145", "field", weaves_1145),
+        rendered_run("held-out 1147", "holdout_1147", "holdout", confirm_1147),
+        rendered_run("microscope-like weaves 1148", "microscope_1148", "field", microscope_1148),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -170,12 +216,16 @@ def missing_runs(runs: list[Run], measured: list[Run]) -> list[str]:
     return ["\n".join(lines)] if lines else []
 
 
-def runs_section(runs: list[Run]) -> str:
-    """Which runs the page compares: folder, sample sheet, number of images and the sheet's ``source`` values."""
+def runs_section(runs: list[Run], earlier: str = "") -> str:
+    """Which runs the page compares: folder, sample sheet, number of images and the sheet's ``source`` values.
+
+    A run whose files are not here keeps its row of ``earlier`` (the page being replaced), if that has one.
+    """
     rows = []
     for run in runs:
         if not (run.folder / "reports").is_dir() or not run.sheet.exists():
-            rows.append([run.label, f"`{shown(run.folder)}`", f"`{shown(run.sheet)}`", "-", not_measured(run.command)])
+            kept = [row for row in earlier_rows(earlier, run.label) if not row[-1].startswith("not measured")]
+            rows += kept or [[run.label, f"`{shown(run.folder)}`", f"`{shown(run.sheet)}`", "-", not_measured(run.command)]]
             continue
         sheet = read_csv_rows(run.sheet, "\t")
         sources = sorted({row.get("source", "") for row in sheet} - {""})
@@ -209,74 +259,104 @@ def classifier_row(run: Run, accuracy_path: Path) -> list[str]:
             ", ".join(f"{name} {count}" for name, count in folds) or "-", model_set]
 
 
-def classifier_section(runs: list[Run]) -> str:
-    """The classifier of record's LOOCV accuracy per run and source (``reports/<source>/accuracy.json``)."""
+def classifier_section(runs: list[Run], earlier: str = "") -> str:
+    """The classifier of record's LOOCV accuracy per run and source (``reports/<source>/accuracy.json``).
+
+    A run whose reports are not here keeps its rows and source entries of ``earlier`` (the page being replaced).
+    """
     found = {run: sorted((run.folder / "reports").glob("*/accuracy.json")) for run in runs}
-    measured = [run for run in runs if found[run]]
+    rows, entries, measured = [], [], []
+    for run in runs:
+        kept = [] if found[run] else earlier_rows(earlier, run.label)
+        if found[run]:
+            rows += [classifier_row(run, path) for path in found[run]]
+            entries += [source_entry(path) for path in found[run]]
+        elif kept:
+            rows += kept
+            entries += earlier_sources(earlier, run)
+        if found[run] or kept:
+            measured.append(run)
     parts = ["## Classifier of record (LOOCV)"]
     if measured:
-        paths = [path for run in measured for path in found[run]]
-        rows = [classifier_row(run, path) for run in measured for path in found[run]]
-        parts += [source_note(paths), render_table(["run", "source", "correct", "accuracy", "95% Wilson", "chance",
-                                                    "sets the folds chose", "model for new photos uses"], rows),
+        parts += [source_line(entries), render_table(["run", "source", "correct", "accuracy", "95% Wilson", "chance",
+                                                      "sets the folds chose", "model for new photos uses"], rows),
                   "The last column is read from `models/<source>/model.json` beside the reports; `-` where that "
                   "run has no such record."]
     parts += missing_runs(runs, measured)
     return "\n\n".join(parts)
 
 
-def feature_sets_section(runs: list[Run]) -> str:
-    """Every feature set's LOOCV accuracy, one column per run (``reports/feature_sets.csv``)."""
-    measured = [run for run in runs if (run.folder / "reports" / "feature_sets.csv").exists()]
+def feature_sets_section(runs: list[Run], earlier: str = "") -> str:
+    """Every feature set's LOOCV accuracy, one column per run (``reports/feature_sets.csv``).
+
+    A run whose report is not here keeps its column, headline and source entry of ``earlier`` (the page being replaced).
+    """
+    columns: dict[str, dict[str, str]] = {}
+    names: dict[str, str] = {}
+    entries, headlines, measured = [], [], []
+    for run in runs:
+        path = run.folder / "reports" / "feature_sets.csv"
+        if path.exists():
+            table = read_csv_rows(path)
+            for row in table:
+                names.setdefault(f"`{row['feature_set']}`", row["description"])
+            columns[run.label] = {f"`{row['feature_set']}`": f"{percent(row['accuracy'])} ({row['correct']}/{row['n']})"
+                                  if row["status"] == "ok" else "-" for row in table}
+            entries.append(source_entry(path))
+            headlines += [f"- {run.label}: {line}" for line in lines_starting(path.with_suffix(".md"), "Inverse rendering")]
+        elif kept := earlier_column(earlier, run.label, fixed=2):
+            for name, description in kept:
+                names.setdefault(name, description)
+            columns[run.label] = {name: cell for (name, _), cell in kept.items()}
+            entries += earlier_sources(earlier, run)
+            headlines += [line for line in earlier.splitlines() if line.startswith(f"- {run.label}: Inverse rendering")]
+        else:
+            continue
+        measured.append(run)
     parts = ["## Feature sets side by side"]
     if measured:
-        paths = [run.folder / "reports" / "feature_sets.csv" for run in measured]
-        tables = {run.label: {row["feature_set"]: row for row in read_csv_rows(path)} for run, path in zip(measured, paths)}
-        names: dict[str, str] = {}
-        for table in tables.values():
-            for name, row in table.items():
-                names.setdefault(name, row["description"])
-        rows = []
-        for name, description in names.items():
-            cells = []
-            for run in measured:
-                row = tables[run.label].get(name)
-                ok = row is not None and row["status"] == "ok"
-                cells.append(f"{percent(row['accuracy'])} ({row['correct']}/{row['n']})" if ok else "-")
-            rows.append([f"`{name}`", description, *cells])
-        headlines = [f"- {run.label}: {line}" for run in measured
-                     for line in lines_starting(run.folder / "reports" / "feature_sets.md", "Inverse rendering")]
-        parts += [source_note(paths), "What the inverse rendering bought over the photo alone:\n\n" + "\n".join(headlines),
+        rows = [[name, description, *(columns[run.label].get(name, "-") for run in measured)]
+                for name, description in names.items()]
+        parts += [source_line(entries), "What the inverse rendering bought over the photo alone:\n\n" + "\n".join(headlines),
                   render_table(["feature set", "what", *(run.label for run in measured)], rows)]
     parts += missing_runs(runs, measured)
     return "\n\n".join(parts)
 
 
-def fit_accuracy_section(runs: list[Run]) -> str:
-    """The inverse renderer's errors against the ground truth, one column per run, then the design run per class."""
-    measured = [run for run in runs if (run.folder / "reports" / "fit_accuracy.md").exists()]
+def fit_accuracy_section(runs: list[Run], earlier: str = "") -> str:
+    """The inverse renderer's errors against the ground truth, one column per run, then the design run per class.
+
+    A run whose report is not here keeps its column, image count and source entry of ``earlier`` (the page being replaced).
+    """
+    keys: list[tuple[str, ...]] = []
+    columns: dict[str, dict[tuple[str, ...], str]] = {}
+    entries, counts, measured, here = [], [], [], []
+    for run in runs:
+        path = run.folder / "reports" / "fit_accuracy.md"
+        if path.exists():
+            columns[run.label] = {(metric, statistic, target): value
+                                  for metric, statistic, value, target, *_ in markdown_tables(path.read_text(encoding="utf-8"))[0][1:]}
+            entries.append(source_entry(path))
+            counts += [f"- {run.label}: {line}" for line in lines_starting(path, "") if line.endswith("images fitted.")]
+            here.append((run, path))
+        elif kept := earlier_column(earlier, run.label, fixed=3):
+            columns[run.label] = kept
+            entries += earlier_sources(earlier, run)
+            counts += [line for line in earlier.splitlines() if line.startswith(f"- {run.label}: ") and line.endswith("images fitted.")]
+        else:
+            continue
+        measured.append(run)
+        keys += [key for key in columns[run.label] if key not in keys]
     parts = ["## Inverse renderer against the ground truth"]
     if measured:
-        paths = [run.folder / "reports" / "fit_accuracy.md" for run in measured]
-        summaries = [markdown_tables(path.read_text(encoding="utf-8"))[0] for path in paths]
-        keys: list[tuple[str, str, str]] = []
-        values: dict[tuple[str, str], dict[str, str]] = defaultdict(dict)
-        for run, table in zip(measured, summaries):
-            for metric, statistic, value, target, *_ in table[1:]:
-                if (metric, statistic) not in values:
-                    keys.append((metric, statistic, target))
-                values[(metric, statistic)][run.label] = value
-        rows = [[metric, statistic, target, *(values[(metric, statistic)].get(run.label, "-") for run in measured)]
-                for metric, statistic, target in keys]
-        counts = [f"- {run.label}: {line}" for run, path in zip(measured, paths) for line in lines_starting(path, "")
-                  if line.endswith("images fitted.")]
-        parts += [source_note(paths), "\n".join(counts),
+        rows = [[*key, *(columns[run.label].get(key, "-") for run in measured)] for key in keys]
+        parts += [source_line(entries), "\n".join(counts),
                   render_table(["metric", "statistic", "target", *(run.label for run in measured)], rows),
                   "`total_s` is the sum of the three fit stages' wall-clock seconds per image, with two images "
                   "fitting side by side on the machine that ran them (see the rule times below)."]
-        per_class = markdown_tables(paths[0].read_text(encoding="utf-8"))
+        per_class = markdown_tables(here[0][1].read_text(encoding="utf-8")) if here else []
         if len(per_class) > 1:
-            parts += [f"Medians per class, {measured[0].label} run:", render_table(per_class[1][0], per_class[1][1:])]
+            parts += [f"Medians per class, {here[0][0].label} run:", render_table(per_class[1][0], per_class[1][1:])]
     parts += missing_runs(runs, measured)
     return "\n\n".join(parts)
 
@@ -530,8 +610,13 @@ def workflow_reports(results: Path) -> list[tuple[str, list[Path], str]]:
     ]
 
 
-def page_sections(results: Path) -> list[str]:
-    """The page's header and its sections, each starting with its ``## `` title."""
+def page_sections(results: Path, earlier: dict[str, str] | None = None) -> list[str]:
+    """The page's header and its sections, each starting with its ``## `` title.
+
+    ``earlier`` (title -> section of the page being replaced) lets the sections that compare runs keep the rows and
+    columns of runs whose files are not on this machine.
+    """
+    kept = earlier or {}
     runs = workflow_runs(results)
     header = ("# Measured results\n\n"
               f"Written by `{THIS_COMMAND}` from the files under `{shown(results)}/`; do not edit by hand. Each section "
@@ -540,8 +625,11 @@ def page_sections(results: Path) -> list[str]:
               "keeps the text of the page it replaced, whose source line dates it). The images are synthetic "
               "(`data/synthetic/`, README \"The embedded synthetic dataset\"), far easier than real photos: the "
               "figures check the pipeline, not the method.")
-    sections = [header, runs_section(runs), classifier_section(runs), feature_sets_section(runs),
-                fit_accuracy_section(runs), rule_times_section(runs)]
+    sections = [header, runs_section(runs, kept.get("Runs", "")),
+                classifier_section(runs, kept.get("Classifier of record (LOOCV)", "")),
+                feature_sets_section(runs, kept.get("Feature sets side by side", "")),
+                fit_accuracy_section(runs, kept.get("Inverse renderer against the ground truth", "")),
+                rule_times_section(runs)]
     sections += [embedded_section(title, paths, command) for title, paths, command in workflow_reports(results)]
     sections += [embedded_section(report.title, [results / path for path in report.candidates], report.command)
                  for report in benchmark_reports(results)]
@@ -600,8 +688,8 @@ def main() -> None:
                              "(for a machine that holds only some of the runs)")
     args = parser.parse_args()
     results, out = ROOT / args.results, ROOT / args.out
-    sections = page_sections(results)
     earlier = earlier_sections(out.read_text(encoding="utf-8")) if out.exists() else {}
+    sections = page_sections(results, earlier if args.keep_earlier or args.only else None)
     if args.keep_earlier:
         sections = keep_earlier(sections, earlier)
     if args.only:
