@@ -507,6 +507,14 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/record_prefer_second.md",),
                         f"{py}/record_candidates.py results/weaves_1145/run --prefer none photo_structure "
                         "--name record_prefer_second"),
+        BenchmarkReport("Classifier of record: the preferred set on a fresh held-out set",
+                        ("bench/record_prefer_holdout_1147.md",),
+                        f"{py}/record_candidates.py results/holdout_1147/run --prefer none photo_structure "
+                        "--name record_prefer_holdout_1147"),
+        BenchmarkReport("Classifier of record: the preferred set on a fresh microscope-like set",
+                        ("bench/record_prefer_microscope_1148.md",),
+                        f"{py}/record_candidates.py results/microscope_1148/run --prefer none photo_structure "
+                        "--name record_prefer_microscope_1148"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
@@ -550,7 +558,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
         BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
-                        f"{py}/class_subsets.py --holdout results/holdout_1132/run"),
+                        f"{py}/class_subsets.py --holdout results/holdout_1147/run"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py"),
         BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),
