@@ -44,13 +44,11 @@ from clothscope.classify.feature_sets import PHOTO_GROUPS
 from clothscope.classify.loocv import Choice, choose_columns, inner_folds
 from clothscope.classify.model import predict, train_model
 from clothscope.classify.rows import posterior_column, split_labelled
-from clothscope.core.config import SCHEMA_PATH
-from clothscope.core.schema import load_schema
+from clothscope.core.config import config_schema
 
 LISTS = ("without the photo's own sets", "with them (default)")
 #: the values of ``classify.choice.prefer`` (the config schema's enum)
-PREFER_CHOICES = tuple(load_schema(SCHEMA_PATH)
-                       ["properties"]["classify"]["properties"]["choice"]["properties"]["prefer"]["enum"])
+PREFER_CHOICES = tuple(config_schema()["properties"]["classify"]["properties"]["choice"]["properties"]["prefer"]["enum"])
 
 
 def run_rows(run: Path) -> list[dict]:
