@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from clothscope.evaluate.accuracy import effects_comparison, fold_normal_error, in_working_frame, period_error, seen_scale
+from clothscope.evaluate.accuracy import effects_comparison, fold_normal_error, in_working_frame, period_error, seen_scale, summarise
 from clothscope.fit.model import FitCamera, plane_grid
 
 
@@ -76,3 +76,18 @@ def test_effects_comparison_checks_errors_and_time_ratio():
     assert "| time <= 1/4 | 10.0 s | 50.0 s | 0.200 | yes |" in text
     assert "| roughness_error within 5% | 0.1000 | 0.0500 | 2.000 | no |" in text
     assert "| period_error within 5% | 0.0200 | 0.0200 | 1.000 | yes |" in text  # pile rows (-1) left out
+
+
+def test_the_summary_reports_the_period_prepare_read_beside_the_fitted_one():
+    """Rows with a prepare period: its hit rate over periodic images (a pile's -1 left out, a missing lattice a miss)."""
+    table = pd.DataFrame({"image_id": ["a", "b", "c", "pile"], "fabric_class": ["plain", "plain", "twill", "velvet"],
+                          "status": ["fitted"] * 4, "psnr_db": [35.0] * 4, "fold_normal_error_deg": [5.0] * 4,
+                          "roughness_error": [0.02] * 4, "base_color_error": [0.02] * 4, "total_s": [20.0] * 4,
+                          "max_rss_mb": [200.0] * 4, "flat_fold_normal_error_deg": [9.0] * 4, "tilt_error_deg": [2.0] * 4,
+                          "flat_tilt_error_deg": [4.0] * 4, "roughness": [0.5] * 4, "roughness_true": [0.5] * 4,
+                          "period_error": [0.01, 0.20, 0.03, -1.0], "period_error_nominal": [0.01, 0.2, 0.03, -1.0],
+                          "prepare_period_error": [0.02, 0.01, 1.0, -1.0], "period_seen_scale": [1.0] * 4})
+    text = summarise(table)
+    assert "| period within 5% | fraction of 3 periodic | 0.667 | >= 0.9 | no |" in text
+    assert "| period read by `prepare` (native resolution) within 5% | fraction of 3 periodic | 0.667 | (for reference) | |" in text
+    assert "read by `prepare`" not in summarise(table.drop(columns="prepare_period_error"))

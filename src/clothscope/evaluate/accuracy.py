@@ -4,7 +4,8 @@ Geometry is compared registration-free, in view space: every pixel's ray is
 intersected with the true cloth (through the true camera) and with the fitted
 mesh (through the fit camera), and the two surface normals, each expressed in
 its own camera's frame, are compared. Material errors are absolute; the thread
-period is compared through the spectra of the fitted and true normal maps.
+period is compared through the spectra of the fitted and true normal maps, and,
+as the scale the whole pipeline works at, the period ``prepare`` read on the photo.
 """
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ from clothscope.core.imageio import read_exr
 from clothscope.core.mesh import grid_normals
 from clothscope.core.truth import truth_paths
 from clothscope.features.period import thread_period
+from clothscope.features.sources import prepared_period
 from clothscope.fit.model import plane_grid
 from clothscope.fit.outputs import NORMAL_FILE, STATE_FILE, load_state
 from clothscope.prepare.image import STATUS_FILE
@@ -240,6 +242,11 @@ def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: st
     error, nominal = period_error(period, truth, row["period_seen_scale"]), period_error(period, truth)
     row["period_error"] = -1.0 if error is None else error  # -1: no period to measure (pile); vs the seen period
     row["period_error_nominal"] = -1.0 if nominal is None else nominal  # vs thread_period_px at z = 0
+    if prepared_status is not None:
+        read = prepared_period(Path(prepared_status).parent)  # working px, as the truth is here
+        prepare_error = period_error(read, truth, row["period_seen_scale"])
+        row["prepare_period_px"] = read or 0.0
+        row["prepare_period_error"] = -1.0 if prepare_error is None else prepare_error  # 1.0: no lattice found
     return row
 
 
@@ -276,6 +283,10 @@ def summarise(table: Any) -> str:
         if "period_error_nominal" in periodic:
             nominal = float((periodic["period_error_nominal"] <= 0.05).mean())
             lines.append(f"| period within 5% of the nominal z = 0 period | fraction of {len(periodic)} periodic | {nominal:.3f} | (for reference) | |")
+        if "prepare_period_error" in periodic:
+            read = float((periodic["prepare_period_error"] <= 0.05).mean())
+            lines.append(f"| period read by `prepare` (native resolution) within 5% | fraction of {len(periodic)} periodic | "
+                         f"{read:.3f} | (for reference) | |")
     lines += ["", "## Medians per class", "", fitted.groupby("fabric_class")[
         ["psnr_db", "fold_normal_error_deg", "flat_fold_normal_error_deg", "tilt_error_deg",
          "flat_tilt_error_deg", "roughness", "roughness_true", "roughness_error", "base_color_error", "period_error", "total_s"]
@@ -287,6 +298,10 @@ def summarise(table: Any) -> str:
         lines += ["The period is compared with the true period as seen in the photo: the nominal `thread_period_px` "
                   "(threads on the plane z = 0) times the mean magnification of the visible folded cloth "
                   f"(`period_seen_scale`, {lo:.3f} to {hi:.3f} here), since one photo cannot know the cloth's absolute depth.", ""]
+        if "prepare_period_error" in periodic:
+            lines += ["The period read by `prepare` is the one it measured on the photo at native resolution to choose the crop "
+                      "(`scale.working_period_px` of the prepared status, in working pixels; a photo without a lattice counts as a miss): "
+                      "the scale the descriptor of a larger photo takes and the thread count a user is given.", ""]
     return "\n".join(lines)
 
 
