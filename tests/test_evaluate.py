@@ -5,7 +5,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from clothscope.evaluate.accuracy import effects_comparison, fold_normal_error, in_working_frame, period_error, seen_scale, summarise
+from clothscope.evaluate.accuracy import (
+    effects_comparison,
+    fold_normal_error,
+    in_working_frame,
+    period_error,
+    seen_scale,
+    summarise,
+)
 from clothscope.fit.model import FitCamera, plane_grid
 
 

@@ -119,7 +119,7 @@ def workflow_runs(results: Path) -> list[Run]:
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{overlay}/holdout/samples.tsv results={r}/{overlay}/run"
         for overlay in ("confirm_1126", "holdout_1132", "holdout_1135", "holdout_1147"))
     (weaves, fresh, period, microscope, microscope_confirm, weaves_1131, microscope_1130, weaves_1134, microscope_1133,
-     weaves_1140, microscope_1141, microscope_1142, weaves_1143, weaves_1144, weaves_1145, microscope_1148) = (
+     weaves_1140, microscope_1141, microscope_1142, weaves_1143, weaves_1144, weaves_1145, microscope_1148, microscope_1149) = (
         f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
         f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
         for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh"), ("weaves_period", "weaves_period"),
@@ -129,7 +129,7 @@ def workflow_runs(results: Path) -> list[Run]:
                                 ("weaves_1140", "weaves_1140"), ("microscope_1141", "microscope_1141"),
                                 ("microscope_1142", "microscope_1142"), ("weaves_1143", "weaves_1143"),
                                 ("weaves_1144", "weaves_1144"), ("weaves_1145", "weaves_1145"),
-                                ("microscope_1148", "microscope_1148")))
+                                ("microscope_1148", "microscope_1148"), ("microscope_1149", "microscope_1149")))
     default_sheet = ROOT / "config" / "samples.tsv"
 
     def rendered_run(label: str, folder: str, images: str, command: str) -> Run:
@@ -160,6 +160,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("three weaves 1145", "weaves_1145", "field", weaves_1145),
         rendered_run("held-out 1147", "holdout_1147", "holdout", confirm_1147),
         rendered_run("microscope-like weaves 1148", "microscope_1148", "field", microscope_1148),
+        rendered_run("microscope-like weaves 1149", "microscope_1149", "field", microscope_1149),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -468,6 +469,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Thread periods on a fresh nine-class set (seed 20261207)", ("bench/field_set_confirm.md",),
                         f"{py}/field_set.py --field results/period_confirm/field --run results/period_confirm/run "
                         "--name field_set_confirm"),
+        BenchmarkReport("A (1, 1) harmonic read as the thread period: stepping down to the threads", ("bench/period_harmonic.md",),
+                        f"{py}/period_harmonic.py results/microscope/field results/microscope_1141/field "
+                        "results/microscope_1148/field results/weaves/field results/weaves_1140/field results/weaves_1143/field "
+                        "results/weaves_1144/field results/weaves_1145/field results/microscope_1149/field"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "
@@ -515,6 +520,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/record_prefer_microscope_1148.md",),
                         f"{py}/record_candidates.py results/microscope_1148/run --prefer none photo_structure "
                         "--name record_prefer_microscope_1148"),
+        BenchmarkReport("Classifier of record: the preferred set on a second fresh microscope-like set",
+                        ("bench/record_prefer_microscope_1149.md",),
+                        f"{py}/record_candidates.py results/microscope_1149/run --prefer none photo_structure "
+                        "--name record_prefer_microscope_1149"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),

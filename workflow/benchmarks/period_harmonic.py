@@ -1,0 +1,120 @@
+"""Benchmark: ``prepare``'s native thread period, and the same with a (1, 1) harmonic stepped down to the threads.
+
+    .venv/bin/python workflow/benchmarks/period_harmonic.py FIELD [FIELD ...] [--beta 0.3] [--name period_harmonic]
+
+On a woven lattice whose crossings shade as round bumps (a plain weave or a twill under a ring or
+coaxial light), the peak with the most power times frequency, which ``prepare`` takes
+(:func:`clothscope.prepare.image.period_peak_radius`), is often the lattice's (1, 1) harmonic: the
+period comes out sqrt(2) times too short. The threads' own peaks then sit at 1/sqrt(2) of its radius,
+45 degrees from it. The candidate takes the strongest of those (radius within 5%, direction within
+8 degrees) instead when it holds at least ``beta`` of the pick's power. The same geometry appears the
+other way round on a plain weave whose checkerboard of floats is strong: there the pick is the threads
+and the peaks at 1/sqrt(2) are the checkerboard's, so ``beta`` is what tells the two apart.
+
+For every periodic image of each field folder (``<field>/<class>/<id>.jpg`` with its truth record)
+the peaks are those of ``prepare``'s own lattice test on the centred 1024 px of the photo's shading
+(:func:`clothscope.prepare.image.native_period`'s steps); the period is compared with the true one as
+seen (:func:`clothscope.evaluate.accuracy.seen_scale`). Reports per folder how many periods each rule
+reads within 5%, at most 0.75 times (too short) and at least 1.3 times the truth (too long). Writes
+``results/bench/<name>.{csv,md}``. Measured against a rule written before scoring and rejected
+(``docs/design.md``, "A (1, 1) harmonic read as the period").
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from field_set import DECODE, period_ratio
+from harness import ROOT, publish, validated_config
+
+from clothscope.core.imageio import decode_image
+from clothscope.core.truth import truth_paths
+from clothscope.evaluate.accuracy import seen_scale
+from clothscope.features.structure import Spectrum, StructureSettings, analysis_field, find_lattice, refined_radius, spectrum
+from clothscope.prepare.image import centred, period_peak_radius
+from clothscope.prepare.shading import shading
+
+#: periods within this fraction of the truth count as right; at most SHORT or at least LONG times it as wrong that way
+TOLERANCE, SHORT, LONG = 0.05, 0.75, 1.3
+#: how close a peak must lie to 1/sqrt(2) of the pick's radius (fraction) and to 45 degrees from its direction
+RADIUS_TOLERANCE, ANGLE_TOLERANCE_DEG = 0.05, 8.0
+
+
+def folded_angle_deg(a: float, b: float) -> float:
+    """Angle between two undirected directions given in degrees, folded to [0, 90]."""
+    return abs((a - b + 90.0) % 180.0 - 90.0)
+
+
+def threads_below(s: Spectrum, peaks: np.ndarray, beta: float) -> float:
+    """The radius (bins) ``prepare`` picks (the most power times radius), or the strongest peak at 1/sqrt(2) of it
+    and 45 degrees from it when that holds at least ``beta`` of the pick's power."""
+    radii = np.array([refined_radius(s, int(k)) for k in peaks])
+    power = s.smoothed.flat[peaks]
+    angles = np.degrees(np.arctan2(s.dy.flat[peaks], s.dx.flat[peaks]))
+    first = int(np.argmax(power * radii))  # clothscope.prepare.image.period_peak_radius, "weighted"
+    pick = float(radii[first])
+    near = (np.abs(radii / (pick / np.sqrt(2)) - 1) < RADIUS_TOLERANCE) & \
+           (np.abs(np.array([folded_angle_deg(a, angles[first]) for a in angles]) - 45.0) < ANGLE_TOLERANCE_DEG)
+    if near.any() and power[near].max() >= beta * power[first]:
+        return float(radii[near][int(np.argmax(power[near]))])
+    return pick
+
+
+def image_row(path: Path, lattice: StructureSettings, beta: float) -> dict | None:
+    """Both periods of one photo against its truth; None for a cloth without a period."""
+    truth = json.loads(truth_paths(path)["json"].read_text(encoding="utf-8"))
+    if not truth["periodic"]:
+        return None
+    seen = seen_scale(truth)
+    periods = [p * seen for p in (truth["thread_period_px"], truth["course_period_px"]) if p]
+    square = centred(decode_image(path, *DECODE).rgb, 1024)[..., :3]
+    s = spectrum(analysis_field(shading(square), 0.0))
+    found = find_lattice(s, lattice)
+    row = {"field": str(path.parent.parent.relative_to(ROOT)), "image_id": path.stem, "fabric_class": truth["fabric_class"],
+           "capture": truth["draw"]["capture"], "true_period_px": periods[0], "default_ratio": None, "stepped_ratio": None}
+    if found.found:
+        pick = period_peak_radius(s, found.peaks, "weighted")
+        row["default_ratio"] = period_ratio(square.shape[0] / pick, periods)
+        row["stepped_ratio"] = period_ratio(square.shape[0] / threads_below(s, found.peaks, beta), periods)
+    return row
+
+
+def counts(ratios: pd.Series) -> tuple[int, int, int]:
+    """Within the tolerance, too short and too long (a photo without a lattice is none of them)."""
+    found = ratios.dropna()
+    return int(((found - 1).abs() < TOLERANCE).sum()), int((found <= SHORT).sum()), int((found >= LONG).sum())
+
+
+def summary(table: pd.DataFrame, beta: float) -> str:
+    """Markdown: per field folder and in all, the counts of both rules."""
+    lines = [f"Native thread period of `prepare` (the peak with the most power times frequency) and the same with a (1, 1) "
+             f"harmonic stepped down to the threads (beta {beta:g}): periods within {TOLERANCE:.0%} of the truth as seen, "
+             f"read at most {SHORT:g} times (too short) and at least {LONG:g} times (too long) the truth, of the periodic images.", "",
+             "| field set | images | default: within 5% | too short | too long | stepped: within 5% | too short | too long |",
+             "|---|---|---|---|---|---|---|---|"]
+    groups = [*table.groupby("field", sort=False), ("all", table)]
+    for name, group in groups:
+        lines.append(f"| {name if name == 'all' else f'`{name}`'} | {len(group)} | "
+                     + " | ".join(str(v) for v in counts(group["default_ratio"]) + counts(group["stepped_ratio"])) + " |")
+    return "\n".join(lines + [""])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("fields", nargs="+", type=Path, help="field set folders (results/<name>/field)")
+    parser.add_argument("--beta", type=float, default=0.3, help="least power of the threads' peak over the pick's")
+    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
+    parser.add_argument("--name", default="period_harmonic", help="report name (<out>/<name>.{csv,md})")
+    args = parser.parse_args()
+    lattice = StructureSettings(**validated_config()["features"]["structure"])
+    rows = [row for field in args.fields for path in sorted(field.resolve().glob("*/*.jpg"))
+            if (row := image_row(path, lattice, args.beta)) is not None]
+    table = pd.DataFrame(rows)
+    publish(args.out, args.name, table, summary(table, args.beta), float_format="%.4g")
+
+
+if __name__ == "__main__":
+    main()
