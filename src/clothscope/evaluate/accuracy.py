@@ -301,7 +301,7 @@ def summarise(table: Any) -> str:
         if "prepare_period_error" in periodic:
             lines += ["The period read by `prepare` is the one it measured on the photo at native resolution to choose the crop "
                       "(`scale.working_period_px` of the prepared status, in working pixels; a photo without a lattice counts as a miss): "
-                      "the scale the descriptor of a larger photo takes and the thread count a user is given.", ""]
+                      "the scale the crop and the descriptor of a larger photo are made at.", ""]
     return "\n".join(lines)
 
 
