@@ -27,7 +27,8 @@ repeats of the split). Measured against a rule written before scoring and reject
 
 ``--prefer SET ...`` scores the record with each ``classify.choice.prefer`` (``none``: the best inner
 accuracy; a candidate's name: that set unless the best beats it by the sign test of
-:class:`clothscope.classify.loocv.Choice`, at the config's ``classify.choice.alpha``).
+:class:`clothscope.classify.loocv.Choice`, at the config's ``classify.choice.alpha``, or at each level
+of ``--alpha A ...``).
 """
 from __future__ import annotations
 
@@ -127,13 +128,14 @@ def criterion_rows(run: Path, criteria: list[str]) -> list[dict]:
     return rows
 
 
-def prefer_rows(run: Path, preferred: list[str]) -> list[dict]:
-    """LOOCV of the classifier of record with each preferred set (``none``: the best inner accuracy)."""
+def prefer_rows(run: Path, preferred: list[str], alphas: list[float] | None = None) -> list[dict]:
+    """LOOCV of the classifier of record with each preferred set (``none``: the best inner accuracy), at each sign
+    test level of ``alphas`` (None: the config's ``classify.choice.alpha``)."""
     ok, tiles, candidates = record_inputs(*run_tables(run), "auto")
     settings = classify_config()
     rows = []
-    for prefer in preferred:
-        choice = Choice.from_config({**settings["choice"], "prefer": prefer})
+    for prefer, alpha in ((p, a) for p in preferred for a in (alphas or [settings["choice"]["alpha"]])):
+        choice = Choice.from_config({**settings["choice"], "prefer": prefer, "alpha": alpha})
         result = record_loocv(ok, candidates, tiles, settings, choice=choice)
         rows.append({"run": shown(run), "candidates": f"prefer {prefer} (alpha {choice.alpha:g})",
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
@@ -152,7 +154,11 @@ def main() -> None:
                         help="score these inner criteria for choosing each fold's set instead")
     parser.add_argument("--prefer", nargs="+", choices=PREFER_CHOICES,
                         help="score the record with each of these classify.choice.prefer values (none or a set's name)")
+    parser.add_argument("--alpha", type=float, nargs="+", metavar="A",
+                        help="with --prefer: at each of these classify.choice.alpha levels (default: the config's)")
     args = parser.parse_args()
+    if args.alpha and (not args.prefer or not all(0.0 < a < 1.0 for a in args.alpha)):
+        parser.error("--alpha needs --prefer and levels between 0 and 1")
     if args.ensemble and min(args.ensemble) < 1:
         parser.error("--ensemble sizes must be >= 1")
     if sum(bool(option) for option in (args.ensemble, args.criterion, args.prefer)) > 1:
@@ -163,7 +169,7 @@ def main() -> None:
     elif args.criterion:
         rows_of = lambda run: criterion_rows(run, list(dict.fromkeys(args.criterion)))  # noqa: E731
     elif args.prefer:
-        rows_of = lambda run: prefer_rows(run, list(dict.fromkeys(args.prefer)))  # noqa: E731
+        rows_of = lambda run: prefer_rows(run, list(dict.fromkeys(args.prefer)), args.alpha)  # noqa: E731
     table = pd.DataFrame([row for run in args.runs for row in rows_of(ROOT / run)])
     how = ("posteriors of the best K candidates averaged in each fold" if args.ensemble
            else "column set chosen inside each fold" + (", by each inner criterion" if args.criterion else "")

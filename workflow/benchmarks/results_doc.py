@@ -524,6 +524,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/record_prefer_microscope_1149.md",),
                         f"{py}/record_candidates.py results/microscope_1149/run --prefer none photo_structure "
                         "--name record_prefer_microscope_1149"),
+        BenchmarkReport("Classifier of record: the sign test's level, screening on the four sets scored after the rule",
+                        ("bench/record_alpha_screening.md",),
+                        f"{py}/record_candidates.py results/weaves_1145/run results/holdout_1147/run results/microscope_1148/run "
+                        "results/microscope_1149/run --prefer photo_structure --alpha 0.15 0.3 --name record_alpha_screening"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
