@@ -13,7 +13,7 @@ and the peaks at 1/sqrt(2) are the checkerboard's, so ``beta`` is what tells the
 
 For every periodic image of each field folder (``<field>/<class>/<id>.jpg`` with its truth record)
 the peaks are those of ``prepare``'s own lattice test on the centred 1024 px of the photo's shading
-(:func:`clothscope.prepare.image.native_period`'s steps); the period is compared with the true one as
+(:func:`clothscope.prepare.image.native_lattice`); the period is compared with the true one as
 seen (:func:`clothscope.evaluate.accuracy.seen_scale`). Reports per folder how many periods each rule
 reads within 5%, at most 0.75 times (too short) and at least 1.3 times the truth (too long). Writes
 ``results/bench/<name>.{csv,md}``. Measured against a rule written before scoring and rejected
@@ -33,9 +33,8 @@ from harness import ROOT, publish, validated_config
 from clothscope.core.imageio import decode_image
 from clothscope.core.truth import truth_paths
 from clothscope.evaluate.accuracy import seen_scale
-from clothscope.features.structure import Spectrum, StructureSettings, analysis_field, find_lattice, refined_radius, spectrum
-from clothscope.prepare.image import centred, period_peak_radius
-from clothscope.prepare.shading import shading
+from clothscope.features.structure import Spectrum, StructureSettings, refined_radius
+from clothscope.prepare.image import native_lattice, period_peak_index, period_peak_radius
 
 #: periods within this fraction of the truth count as right; at most SHORT or at least LONG times it as wrong that way
 TOLERANCE, SHORT, LONG = 0.05, 0.75, 1.3
@@ -49,18 +48,17 @@ def folded_angle_deg(a: float, b: float) -> float:
 
 
 def threads_below(s: Spectrum, peaks: np.ndarray, beta: float) -> float:
-    """The radius (bins) ``prepare`` picks (the most power times radius), or the strongest peak at 1/sqrt(2) of it
-    and 45 degrees from it when that holds at least ``beta`` of the pick's power."""
+    """The radius (bins) ``prepare`` picks (:func:`clothscope.prepare.image.period_peak_index`, ``weighted``), or the
+    strongest peak at 1/sqrt(2) of it and 45 degrees from it when that holds at least ``beta`` of the pick's power."""
     radii = np.array([refined_radius(s, int(k)) for k in peaks])
     power = s.smoothed.flat[peaks]
     angles = np.degrees(np.arctan2(s.dy.flat[peaks], s.dx.flat[peaks]))
-    first = int(np.argmax(power * radii))  # clothscope.prepare.image.period_peak_radius, "weighted"
-    pick = float(radii[first])
-    near = (np.abs(radii / (pick / np.sqrt(2)) - 1) < RADIUS_TOLERANCE) & \
+    first = period_peak_index(s, peaks, "weighted")
+    near = (np.abs(radii / (radii[first] / np.sqrt(2)) - 1) < RADIUS_TOLERANCE) & \
            (np.abs(np.array([folded_angle_deg(a, angles[first]) for a in angles]) - 45.0) < ANGLE_TOLERANCE_DEG)
     if near.any() and power[near].max() >= beta * power[first]:
         return float(radii[near][int(np.argmax(power[near]))])
-    return pick
+    return float(radii[first])
 
 
 def image_row(path: Path, lattice: StructureSettings, beta: float) -> dict | None:
@@ -70,15 +68,12 @@ def image_row(path: Path, lattice: StructureSettings, beta: float) -> dict | Non
         return None
     seen = seen_scale(truth)
     periods = [p * seen for p in (truth["thread_period_px"], truth["course_period_px"]) if p]
-    square = centred(decode_image(path, *DECODE).rgb, 1024)[..., :3]
-    s = spectrum(analysis_field(shading(square), 0.0))
-    found = find_lattice(s, lattice)
+    side, s, found = native_lattice(decode_image(path, *DECODE).rgb, 1024, lattice)
     row = {"field": str(path.parent.parent.relative_to(ROOT)), "image_id": path.stem, "fabric_class": truth["fabric_class"],
            "capture": truth["draw"]["capture"], "true_period_px": periods[0], "default_ratio": None, "stepped_ratio": None}
     if found.found:
-        pick = period_peak_radius(s, found.peaks, "weighted")
-        row["default_ratio"] = period_ratio(square.shape[0] / pick, periods)
-        row["stepped_ratio"] = period_ratio(square.shape[0] / threads_below(s, found.peaks, beta), periods)
+        row["default_ratio"] = period_ratio(side / period_peak_radius(s, found.peaks, "weighted"), periods)
+        row["stepped_ratio"] = period_ratio(side / threads_below(s, found.peaks, beta), periods)
     return row
 
 

@@ -27,7 +27,15 @@ from PIL import Image
 
 from clothscope.core.atomic import atomic_dir, write_json
 from clothscope.core.imageio import ImageRejected, decode_image, linear_to_srgb, luminance, write_exr, write_png
-from clothscope.features.structure import Spectrum, StructureSettings, analysis_field, find_lattice, refined_radius, spectrum
+from clothscope.features.structure import (
+    Lattice,
+    Spectrum,
+    StructureSettings,
+    analysis_field,
+    find_lattice,
+    refined_radius,
+    spectrum,
+)
 from clothscope.prepare.shading import shading
 
 STATUS_FILE = "status.json"
@@ -78,18 +86,28 @@ def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings, fiel
     the period is that of the peak :func:`period_peak_radius` picks (``peak``).
     """
     check_period_peak(peak)
-    square = centred(rgb, window)[..., :3]
-    values = shading(square) if field == "shading" else luminance(square)
-    s = spectrum(analysis_field(values, 0.0))
-    found = find_lattice(s, lattice)
+    side, s, found = native_lattice(rgb, window, lattice, field)
     if not found.found:
         return None
     radius = period_peak_radius(s, found.peaks, peak)
-    return float(square.shape[0] / radius) if radius > 0 else None
+    return float(side / radius) if radius > 0 else None
+
+
+def native_lattice(rgb: np.ndarray, window: int, lattice: StructureSettings, field: str = "shading") -> tuple[int, Spectrum, Lattice]:
+    """Side (pixels), spectrum and lattice peaks of the photo's centred ``window`` square that :func:`native_period` reads."""
+    square = centred(rgb, window)[..., :3]
+    values = shading(square) if field == "shading" else luminance(square)
+    s = spectrum(analysis_field(values, 0.0))
+    return square.shape[0], s, find_lattice(s, lattice)
 
 
 def period_peak_radius(s: Spectrum, peaks: np.ndarray, peak: str) -> float:
-    """Radius (bins) of the lattice peak that gives the thread period.
+    """Radius (bins) of the lattice peak that gives the thread period (:func:`period_peak_index`)."""
+    return refined_radius(s, int(peaks[period_peak_index(s, peaks, peak)]))
+
+
+def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str) -> int:
+    """Index into ``peaks`` of the lattice peak that gives the thread period.
 
     ``strongest``: the most powerful peak. ``weighted``: the peak with the most
     power times radius. A colour repeat many threads long (a stripe or check of
@@ -108,7 +126,7 @@ def period_peak_radius(s: Spectrum, peaks: np.ndarray, peak: str) -> float:
     radii = np.array([refined_radius(s, int(k)) for k in peaks])
     power = s.smoothed.flat[np.asarray(peaks)]
     score = power * radii if peak == "weighted" else power
-    return float(radii[int(np.argmax(score))])
+    return int(np.argmax(score))
 
 
 def thread_crop(source_side: int, period: float | None, settings: PrepareSettings) -> tuple[int, dict[str, Any]]:
