@@ -114,53 +114,41 @@ def workflow_runs(results: Path) -> list[Run]:
              f"--config samples={r}/field/samples.tsv results={r}/field/run")
     albedo = (".venv/bin/snakemake --cores 2 --configfile config/config.yaml config/overlays/colour_texture.yaml "
               f"--config results={r}/exp_albedo")
-    confirm, confirm_1132, confirm_1135, confirm_1147 = (
-        f".venv/bin/snakemake --cores 2 holdout_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
-        f" && .venv/bin/snakemake --cores 2 --config samples={r}/{overlay}/holdout/samples.tsv results={r}/{overlay}/run"
-        for overlay in ("confirm_1126", "holdout_1132", "holdout_1135", "holdout_1147"))
-    (weaves, fresh, period, microscope, microscope_confirm, weaves_1131, microscope_1130, weaves_1134, microscope_1133,
-     weaves_1140, microscope_1141, microscope_1142, weaves_1143, weaves_1144, weaves_1145, microscope_1148, microscope_1149) = (
-        f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{overlay}.yaml"
-        f" && .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv results={r}/{folder}/run"
-        for overlay, folder in (("field_weaves", "weaves"), ("weaves_fresh", "weaves_fresh"), ("weaves_period", "weaves_period"),
-                                ("microscope", "microscope"), ("microscope_confirm", "microscope_confirm"),
-                                ("weaves_1131", "weaves_1131"), ("microscope_1130", "microscope_1130"),
-                                ("weaves_1134", "weaves_1134"), ("microscope_1133", "microscope_1133"),
-                                ("weaves_1140", "weaves_1140"), ("microscope_1141", "microscope_1141"),
-                                ("microscope_1142", "microscope_1142"), ("weaves_1143", "weaves_1143"),
-                                ("weaves_1144", "weaves_1144"), ("weaves_1145", "weaves_1145"),
-                                ("microscope_1148", "microscope_1148"), ("microscope_1149", "microscope_1149")))
     default_sheet = ROOT / "config" / "samples.tsv"
 
-    def rendered_run(label: str, folder: str, images: str, command: str) -> Run:
-        """A set rendered into ``results/<folder>/<images>/`` (holdout or field) and run into ``results/<folder>/run``."""
+    def rendered_run(label: str, folder: str, images: str, overlay: str | None = None) -> Run:
+        """A set rendered by the ``<images>_set`` target (holdout or field) with ``config/overlays/<overlay>.yaml``
+        (default: ``<folder>.yaml``) into ``results/<folder>/<images>/`` and run into ``results/<folder>/run``."""
+        command = (f".venv/bin/snakemake --cores 2 {images}_set --configfile config/config.yaml "
+                   f"config/overlays/{overlay or folder}.yaml && .venv/bin/snakemake --cores 2 "
+                   f"--config samples={r}/{folder}/{images}/samples.tsv results={r}/{folder}/run")
         return Run(label, results / folder / "run", results / folder / images / "samples.tsv", command)
 
     return [
         Run("design", results, default_sheet, design),
         Run("held-out", results / "holdout" / "run", results / "holdout" / "samples.tsv", holdout),
-        rendered_run("held-out 1126", "confirm_1126", "holdout", confirm),
+        rendered_run("held-out 1126", "confirm_1126", "holdout"),
         Run("field", results / "field" / "run", results / "field" / "samples.tsv", field),
-        rendered_run("three weaves", "weaves", "field", weaves),
-        rendered_run("three weaves, fresh", "weaves_fresh", "field", fresh),
-        rendered_run("three weaves, fourth", "weaves_period", "field", period),
-        rendered_run("microscope-like weaves", "microscope", "field", microscope),
-        rendered_run("microscope-like weaves, second", "microscope_confirm", "field", microscope_confirm),
-        rendered_run("held-out 1132", "holdout_1132", "holdout", confirm_1132),
-        rendered_run("three weaves, fifth", "weaves_1131", "field", weaves_1131),
-        rendered_run("microscope-like weaves, third", "microscope_1130", "field", microscope_1130),
-        rendered_run("held-out 1135", "holdout_1135", "holdout", confirm_1135),
-        rendered_run("three weaves, sixth", "weaves_1134", "field", weaves_1134),
-        rendered_run("microscope-like weaves, fourth", "microscope_1133", "field", microscope_1133),
-        rendered_run("three weaves, seventh", "weaves_1140", "field", weaves_1140),
-        rendered_run("microscope-like weaves, fifth", "microscope_1141", "field", microscope_1141),
-        rendered_run("microscope-like weaves 1142", "microscope_1142", "field", microscope_1142),
-        rendered_run("three weaves 1143", "weaves_1143", "field", weaves_1143),
-        rendered_run("three weaves 1144", "weaves_1144", "field", weaves_1144),
-        rendered_run("three weaves 1145", "weaves_1145", "field", weaves_1145),
-        rendered_run("held-out 1147", "holdout_1147", "holdout", confirm_1147),
-        rendered_run("microscope-like weaves 1148", "microscope_1148", "field", microscope_1148),
-        rendered_run("microscope-like weaves 1149", "microscope_1149", "field", microscope_1149),
+        rendered_run("three weaves", "weaves", "field", "field_weaves"),
+        rendered_run("three weaves, fresh", "weaves_fresh", "field"),
+        rendered_run("three weaves, fourth", "weaves_period", "field"),
+        rendered_run("microscope-like weaves", "microscope", "field"),
+        rendered_run("microscope-like weaves, second", "microscope_confirm", "field"),
+        rendered_run("held-out 1132", "holdout_1132", "holdout"),
+        rendered_run("three weaves, fifth", "weaves_1131", "field"),
+        rendered_run("microscope-like weaves, third", "microscope_1130", "field"),
+        rendered_run("held-out 1135", "holdout_1135", "holdout"),
+        rendered_run("three weaves, sixth", "weaves_1134", "field"),
+        rendered_run("microscope-like weaves, fourth", "microscope_1133", "field"),
+        rendered_run("three weaves, seventh", "weaves_1140", "field"),
+        rendered_run("microscope-like weaves, fifth", "microscope_1141", "field"),
+        rendered_run("microscope-like weaves 1142", "microscope_1142", "field"),
+        rendered_run("three weaves 1143", "weaves_1143", "field"),
+        rendered_run("three weaves 1144", "weaves_1144", "field"),
+        rendered_run("three weaves 1145", "weaves_1145", "field"),
+        rendered_run("held-out 1147", "holdout_1147", "holdout"),
+        rendered_run("microscope-like weaves 1148", "microscope_1148", "field"),
+        rendered_run("microscope-like weaves 1149", "microscope_1149", "field"),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
