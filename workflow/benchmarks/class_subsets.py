@@ -6,7 +6,7 @@ configured feature set (``auto`` chooses inside each fold) and QDA subspace, on 
 joined with the photo's features. No setting is chosen here; the design set's figures are
 still optimistic (the feature groups were designed on it), the held-out set's are not.
 
-    .venv/bin/python workflow/benchmarks/class_subsets.py [--design results] [--holdout results/holdout/run]
+    .venv/bin/python workflow/benchmarks/class_subsets.py [--design results] [--holdout results/holdout/run ...]
 
 Writes ``results/bench/class_subsets.{csv,md}``. Needs each folder's
 ``features/{fitted,photo}/table.parquet``.
@@ -17,7 +17,7 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, publish, record_inputs, record_loocv, run_tables, validated_config
+from harness import ROOT, publish, record_inputs, record_loocv, run_tables, shown, validated_config
 
 from clothscope.classify.paper_tables import PAPER_EXPERIMENTS
 
@@ -41,6 +41,11 @@ def scored_subsets(results: Path, label: str, settings: dict) -> list[dict]:
     return rows
 
 
+def held_out_label(folder: Path, folders: list[Path]) -> str:
+    """``held-out``, or ``held-out (<folder>)`` when several held-out runs are scored."""
+    return "held-out" if len(folders) == 1 else f"held-out ({shown(folder)})"
+
+
 def report(frame: pd.DataFrame, settings: dict) -> str:
     """The Markdown page of the benchmark."""
     lines = ["# Classifier of record on the paper's class subsets (LOOCV, fitted maps + photo features)", "",
@@ -56,11 +61,12 @@ def report(frame: pd.DataFrame, settings: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--design", type=Path, default=ROOT / "results")
-    parser.add_argument("--holdout", type=Path, default=ROOT / "results" / "holdout" / "run")
+    parser.add_argument("--holdout", type=Path, nargs="+", default=[ROOT / "results" / "holdout" / "run"],
+                        help="held-out run folders, each scored and labelled by its path")
     args = parser.parse_args()
     settings = classify_config()
-    rows = [row for label, folder in (("design", args.design), ("held-out", args.holdout))
-            for row in scored_subsets(folder, label, settings)]
+    labelled = [("design", args.design)] + [(held_out_label(folder, args.holdout), folder) for folder in args.holdout]
+    rows = [row for label, folder in labelled for row in scored_subsets(folder, label, settings)]
     frame = pd.DataFrame(rows)
     publish(ROOT / "results" / "bench", "class_subsets", frame, report(frame, settings), float_format="%.6f")
 

@@ -129,15 +129,17 @@ def criterion_rows(run: Path, criteria: list[str]) -> list[dict]:
 
 
 def prefer_rows(run: Path, preferred: list[str], alphas: list[float] | None = None) -> list[dict]:
-    """LOOCV of the classifier of record with each preferred set (``none``: the best inner accuracy), at each sign
-    test level of ``alphas`` (None: the config's ``classify.choice.alpha``)."""
+    """LOOCV of the classifier of record with each preferred set (``none``: the best inner accuracy, scored once,
+    since it runs no sign test), at each sign test level of ``alphas`` (None: the config's ``classify.choice.alpha``)."""
     ok, tiles, candidates = record_inputs(*run_tables(run), "auto")
     settings = classify_config()
+    levels = alphas or [settings["choice"]["alpha"]]
     rows = []
-    for prefer, alpha in ((p, a) for p in preferred for a in (alphas or [settings["choice"]["alpha"]])):
+    for prefer, alpha in ((p, a) for p in preferred for a in (levels[:1] if p == "none" else levels)):
         choice = Choice.from_config({**settings["choice"], "prefer": prefer, "alpha": alpha})
         result = record_loocv(ok, candidates, tiles, settings, choice=choice)
-        rows.append({"run": shown(run), "candidates": f"prefer {prefer} (alpha {choice.alpha:g})",
+        rows.append({"run": shown(run), "candidates": f"prefer {prefer}" + ("" if choice.prefer is None
+                                                                             else f" (alpha {choice.alpha:g})"),
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
                      "folds_chose": ", ".join(f"{n} {c}" for n, c in sorted(result.selected.items(), key=lambda kv: -kv[1]))})
     return rows

@@ -149,6 +149,8 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1147", "holdout_1147", "holdout"),
         rendered_run("microscope-like weaves 1148", "microscope_1148", "field"),
         rendered_run("microscope-like weaves 1149", "microscope_1149", "field"),
+        rendered_run("microscope-like weaves 1150", "microscope_1150", "field"),
+        rendered_run("held-out 1151", "holdout_1151", "holdout"),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -461,6 +463,9 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/period_harmonic.py results/microscope/field results/microscope_1141/field "
                         "results/microscope_1148/field results/weaves/field results/weaves_1140/field results/weaves_1143/field "
                         "results/weaves_1144/field results/weaves_1145/field results/microscope_1149/field"),
+        BenchmarkReport("A (1, 1) harmonic read as the thread period, on a fifth microscope-like set (after the rule)",
+                        ("bench/period_harmonic_1150.md",),
+                        f"{py}/period_harmonic.py results/microscope_1150/field --name period_harmonic_1150"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "
@@ -516,6 +521,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/record_alpha_screening.md",),
                         f"{py}/record_candidates.py results/weaves_1145/run results/holdout_1147/run results/microscope_1148/run "
                         "results/microscope_1149/run --prefer photo_structure --alpha 0.15 0.3 --name record_alpha_screening"),
+        BenchmarkReport("Classifier of record: the sign test's level, confirmation on two fresh sets",
+                        ("bench/record_alpha_confirmation.md",),
+                        f"{py}/record_candidates.py results/microscope_1150/run results/holdout_1151/run "
+                        "--prefer none photo_structure --alpha 0.05 0.3 --name record_alpha_confirmation"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
@@ -559,7 +568,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
         BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
-                        f"{py}/class_subsets.py --holdout results/holdout_1147/run"),
+                        f"{py}/class_subsets.py --holdout results/holdout_1147/run results/holdout_1151/run"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py"),
         BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),
