@@ -116,6 +116,14 @@ def workflow_runs(results: Path) -> list[Run]:
               f"--config results={r}/exp_albedo")
     default_sheet = ROOT / "config" / "samples.tsv"
 
+    def period_auto_run(label: str, folder: str, images: str) -> Run:
+        """``results/<folder>/run`` (made with ``features.period_source: field``, the default of then) refeatured with
+        ``auto`` into ``results/<folder>_auto/run``, its fits reused."""
+        command = (f".venv/bin/python workflow/benchmarks/setting_gain.py --rerun config/overlays/period_auto.yaml "
+                   f"--drop features/photo --drop features/fitted {r}/{folder}/run:{r}/{folder}_auto/run:"
+                   f"{r}/{folder}/{images}/samples.tsv")
+        return Run(label, results / f"{folder}_auto" / "run", results / folder / images / "samples.tsv", command)
+
     def rendered_run(label: str, folder: str, images: str, overlay: str | None = None) -> Run:
         """A set rendered by the ``<images>_set`` target (holdout or field) with ``config/overlays/<overlay>.yaml``
         (default: ``<folder>.yaml``) into ``results/<folder>/<images>/`` and run into ``results/<folder>/run``."""
@@ -151,6 +159,11 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("microscope-like weaves 1149", "microscope_1149", "field"),
         rendered_run("microscope-like weaves 1150", "microscope_1150", "field"),
         rendered_run("held-out 1151", "holdout_1151", "holdout"),
+        period_auto_run("three weaves 1144, period auto", "weaves_1144", "photos"),
+        period_auto_run("three weaves 1145, period auto", "weaves_1145", "photos"),
+        period_auto_run("microscope-like weaves 1148, period auto", "microscope_1148", "photos"),
+        period_auto_run("microscope-like weaves 1149, period auto", "microscope_1149", "field"),
+        period_auto_run("microscope-like weaves 1150, period auto", "microscope_1150", "field"),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -549,6 +562,13 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/setting_gain.py --rerun config/overlays/period_auto.yaml --drop features/photo --drop features/fitted "
                         "results/weaves_1143/run:results/weaves_1143_auto/run:results/weaves_1143/field/samples.tsv "
                         "--name period_auto"),
+        BenchmarkReport("The thread period where the photo is larger than the working image, under the current record",
+                        ("bench/period_auto_fresh.md",),
+                        f"{py}/setting_gain.py --rerun config/overlays/period_auto.yaml --drop features/photo --drop features/fitted "
+                        + " ".join(f"results/{s}/run:results/{s}_auto/run:results/{s}/{sheet}/samples.tsv" for s, sheet in
+                                   (("weaves_1144", "photos"), ("weaves_1145", "photos"), ("microscope_1148", "photos"),
+                                    ("microscope_1149", "field"), ("microscope_1150", "field")))
+                        + " --name period_auto_fresh"),
         BenchmarkReport("Turned and zoomed views as extra training rows, screening", ("bench/views_gain.md",),
                         f"{py}/views_gain.py results results/weaves/run results/microscope/run"),
         BenchmarkReport("Tiles on the three-weave set of seed 20261203", ("bench/tiles_gain_weaves.md",),
@@ -570,7 +590,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
                         f"{py}/class_subsets.py --holdout results/holdout_1147/run results/holdout_1151/run"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
-                        f"{py}/invariance_fitted.py"),
+                        f"{py}/invariance_fitted.py --images all"),
         BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),
                         f"{py}/large_photo.py"),
         BenchmarkReport("What accuracy costs: presets and knobs", ("reports/cost_accuracy.md",), f"{py}/cost_accuracy.py"),
