@@ -119,7 +119,7 @@ def workflow_runs(results: Path) -> list[Run]:
     def period_auto_run(label: str, folder: str, images: str) -> Run:
         """``results/<folder>/run`` (made with ``features.period_source: field``, the default of then) refeatured with
         ``auto`` into ``results/<folder>_auto/run``, its fits reused."""
-        command = (f".venv/bin/python workflow/benchmarks/setting_gain.py --rerun config/overlays/period_auto.yaml "
+        command = (f".venv/bin/python workflow/benchmarks/setting_gain.py --rerun config/config.yaml "
                    f"--drop features/photo --drop features/fitted {r}/{folder}/run:{r}/{folder}_auto/run:"
                    f"{r}/{folder}/{images}/samples.tsv")
         return Run(label, results / f"{folder}_auto" / "run", results / folder / images / "samples.tsv", command)
@@ -559,12 +559,12 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "on a GPU machine)"),
         BenchmarkReport("The thread period where the photo is larger than the working image, confirmation",
                         ("bench/period_auto.md",),
-                        f"{py}/setting_gain.py --rerun config/overlays/period_auto.yaml --drop features/photo --drop features/fitted "
+                        f"{py}/setting_gain.py --rerun config/config.yaml --drop features/photo --drop features/fitted "
                         "results/weaves_1143/run:results/weaves_1143_auto/run:results/weaves_1143/field/samples.tsv "
                         "--name period_auto"),
         BenchmarkReport("The thread period where the photo is larger than the working image, under the current record",
                         ("bench/period_auto_fresh.md",),
-                        f"{py}/setting_gain.py --rerun config/overlays/period_auto.yaml --drop features/photo --drop features/fitted "
+                        f"{py}/setting_gain.py --rerun config/config.yaml --drop features/photo --drop features/fitted "
                         + " ".join(f"results/{s}/run:results/{s}_auto/run:results/{s}/{sheet}/samples.tsv" for s, sheet in
                                    (("weaves_1144", "photos"), ("weaves_1145", "photos"), ("microscope_1148", "photos"),
                                     ("microscope_1149", "field"), ("microscope_1150", "field")))
