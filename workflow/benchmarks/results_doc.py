@@ -55,6 +55,20 @@ class BenchmarkReport:
     command: str
 
 
+#: The five sets refeatured with ``features.period_source: auto`` (label, folder under results/, sheet folder).
+PERIOD_AUTO_SETS = (("three weaves 1144", "weaves_1144", "photos"), ("three weaves 1145", "weaves_1145", "photos"),
+                    ("microscope-like weaves 1148", "microscope_1148", "photos"),
+                    ("microscope-like weaves 1149", "microscope_1149", "field"),
+                    ("microscope-like weaves 1150", "microscope_1150", "field"))
+#: The benchmark that refeatures a run with the config's defaults (period_source auto), fits reused.
+PERIOD_AUTO_RERUN = "setting_gain.py --rerun config/config.yaml --drop features/photo --drop features/fitted"
+
+
+def period_auto_pair(results: str, folder: str, images: str) -> str:
+    """The ``BEFORE:AFTER:SHEET`` argument of :data:`PERIOD_AUTO_RERUN` for one of :data:`PERIOD_AUTO_SETS`."""
+    return f"{results}/{folder}/run:{results}/{folder}_auto/run:{results}/{folder}/{images}/samples.tsv"
+
+
 def written_on(path: Path) -> str:
     """The UTC date ``path`` was last written, ``YYYY-MM-DD``."""
     return datetime.fromtimestamp(path.stat().st_mtime, tz=timezone.utc).strftime("%Y-%m-%d")
@@ -119,9 +133,7 @@ def workflow_runs(results: Path) -> list[Run]:
     def period_auto_run(label: str, folder: str, images: str) -> Run:
         """``results/<folder>/run`` (made with ``features.period_source: field``, the default of then) refeatured with
         ``auto`` into ``results/<folder>_auto/run``, its fits reused."""
-        command = (f".venv/bin/python workflow/benchmarks/setting_gain.py --rerun config/config.yaml "
-                   f"--drop features/photo --drop features/fitted {r}/{folder}/run:{r}/{folder}_auto/run:"
-                   f"{r}/{folder}/{images}/samples.tsv")
+        command = f".venv/bin/python workflow/benchmarks/{PERIOD_AUTO_RERUN} {period_auto_pair(r, folder, images)}"
         return Run(label, results / f"{folder}_auto" / "run", results / folder / images / "samples.tsv", command)
 
     def rendered_run(label: str, folder: str, images: str, overlay: str | None = None) -> Run:
@@ -159,11 +171,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("microscope-like weaves 1149", "microscope_1149", "field"),
         rendered_run("microscope-like weaves 1150", "microscope_1150", "field"),
         rendered_run("held-out 1151", "holdout_1151", "holdout"),
-        period_auto_run("three weaves 1144, period auto", "weaves_1144", "photos"),
-        period_auto_run("three weaves 1145, period auto", "weaves_1145", "photos"),
-        period_auto_run("microscope-like weaves 1148, period auto", "microscope_1148", "photos"),
-        period_auto_run("microscope-like weaves 1149, period auto", "microscope_1149", "field"),
-        period_auto_run("microscope-like weaves 1150, period auto", "microscope_1150", "field"),
+        *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
 
@@ -559,15 +567,13 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "on a GPU machine)"),
         BenchmarkReport("The thread period where the photo is larger than the working image, confirmation",
                         ("bench/period_auto.md",),
-                        f"{py}/setting_gain.py --rerun config/config.yaml --drop features/photo --drop features/fitted "
+                        f"{py}/{PERIOD_AUTO_RERUN} "
                         "results/weaves_1143/run:results/weaves_1143_auto/run:results/weaves_1143/field/samples.tsv "
                         "--name period_auto"),
         BenchmarkReport("The thread period where the photo is larger than the working image, under the current record",
                         ("bench/period_auto_fresh.md",),
-                        f"{py}/setting_gain.py --rerun config/config.yaml --drop features/photo --drop features/fitted "
-                        + " ".join(f"results/{s}/run:results/{s}_auto/run:results/{s}/{sheet}/samples.tsv" for s, sheet in
-                                   (("weaves_1144", "photos"), ("weaves_1145", "photos"), ("microscope_1148", "photos"),
-                                    ("microscope_1149", "field"), ("microscope_1150", "field")))
+                        f"{py}/{PERIOD_AUTO_RERUN} "
+                        + " ".join(period_auto_pair("results", folder, images) for _, folder, images in PERIOD_AUTO_SETS)
                         + " --name period_auto_fresh"),
         BenchmarkReport("Turned and zoomed views as extra training rows, screening", ("bench/views_gain.md",),
                         f"{py}/views_gain.py results results/weaves/run results/microscope/run"),
