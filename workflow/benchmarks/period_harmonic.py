@@ -40,6 +40,8 @@ from clothscope.prepare.image import native_lattice, period_peak_index, period_p
 TOLERANCE, SHORT, LONG = 0.05, 0.75, 1.3
 #: how close a peak must lie to 1/sqrt(2) of the pick's radius (fraction) and to 45 degrees from its direction
 RADIUS_TOLERANCE, ANGLE_TOLERANCE_DEG = 0.05, 8.0
+#: least power of the threads' peak over the pick's at which the candidate steps down (``--beta``)
+BETA = 0.3
 
 
 def folded_angle_deg(a: float, b: float) -> float:
@@ -100,7 +102,7 @@ def summary(table: pd.DataFrame, beta: float) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("fields", nargs="+", type=Path, help="field set folders (results/<name>/field)")
-    parser.add_argument("--beta", type=float, default=0.3, help="least power of the threads' peak over the pick's")
+    parser.add_argument("--beta", type=float, default=BETA, help="least power of the threads' peak over the pick's")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     parser.add_argument("--name", default="period_harmonic", help="report name (<out>/<name>.{csv,md})")
     args = parser.parse_args()

@@ -487,6 +487,9 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("A (1, 1) harmonic read as the thread period, on a fifth microscope-like set (after the rule)",
                         ("bench/period_harmonic_1150.md",),
                         f"{py}/period_harmonic.py results/microscope_1150/field --name period_harmonic_1150"),
+        BenchmarkReport("What a perfect thread period would buy the photo's descriptor", ("bench/period_oracle.md",),
+                        f"{py}/period_oracle.py "
+                        + " ".join(f"--set results/{folder}/run results/{folder}/field" for _, folder, _ in PERIOD_AUTO_SETS)),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "
