@@ -490,6 +490,11 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("What a perfect thread period would buy the photo's descriptor", ("bench/period_oracle.md",),
                         f"{py}/period_oracle.py "
                         + " ".join(f"--set results/{folder}/run results/{folder}/field" for _, folder, _ in PERIOD_AUTO_SETS)),
+        BenchmarkReport("What a perfect thread period would buy the photo's descriptor, on three earlier sets",
+                        ("bench/period_oracle_more.md",),
+                        f"{py}/period_oracle.py --set results/microscope/run results/microscope/field "
+                        "--set results/weaves_1140/run results/weaves_1140/field --set results/weaves_1143/run "
+                        "results/weaves_1143/field --name period_oracle_more"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "
