@@ -278,14 +278,16 @@ def test_thread_scale_needs_the_peak_test_and_a_valid_band(tmp_path):
 
 @pytest.fixture(scope="module")
 def valid_files(tmp_path_factory) -> dict[str, bytes]:
-    """The bytes of a small valid PNG, JPEG, TIFF and OpenEXR."""
+    """The bytes of a small valid PNG, JPEG, TIFF, BMP, WebP and OpenEXR."""
     folder = tmp_path_factory.mktemp("valid")
     rgb = gradient_rgb(48, 64)
     Image.fromarray(rgb).save(folder / "v.png")
     Image.fromarray(rgb).save(folder / "v.jpg", quality=90)
     Image.fromarray(rgb).save(folder / "v.tif")
+    Image.fromarray(rgb).save(folder / "v.bmp")
+    Image.fromarray(rgb).save(folder / "v.webp", quality=90)
     write_exr(folder / "v.exr", rgb.astype(np.float32) / 255)
-    return {suffix: (folder / f"v.{suffix}").read_bytes() for suffix in ("png", "jpg", "tif", "exr")}
+    return {suffix: (folder / f"v.{suffix}").read_bytes() for suffix in ("png", "jpg", "tif", "bmp", "webp", "exr")}
 
 
 MUTATIONS = st.one_of(
@@ -311,9 +313,9 @@ def mutated(data: bytes, mutation: tuple) -> bytes:
 
 
 @settings(max_examples=120, deadline=10_000, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(st.sampled_from(["png", "jpg", "tif", "exr"]), MUTATIONS)
+@given(st.sampled_from(["png", "jpg", "tif", "bmp", "webp", "exr"]), MUTATIONS)
 def test_fuzzed_files_decode_or_are_rejected_with_one_line(valid_files, tmp_path, suffix, mutation):
-    """Truncated, bit-flipped or overwritten PNG, JPEG, TIFF and EXR files: finite pixels or one line, never another error."""
+    """Truncated, bit-flipped or overwritten PNG, JPEG, TIFF, BMP, WebP and EXR files: finite pixels or one line, never another error."""
     path = tmp_path / f"fuzzed.{suffix}"
     path.write_bytes(mutated(valid_files[suffix], mutation))
     try:

@@ -126,14 +126,15 @@ def test_empty_class_marks_a_query(tmp_path):
 
 
 def test_sheet_from_folder_tree(tmp_path):
-    for rel in ("Canvas/one.png", "canvas-2/b c.jpg", "query.tif", "Canvas/one.truth-normal.png", "notes.txt"):
+    for rel in ("Canvas/one.png", "canvas-2/b c.jpg", "query.tif", "Satin/s1.BMP", "satin/s2.webp",
+                "Canvas/one.truth-normal.png", "notes.txt"):
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / rel).write_bytes(b"x")
     sheet = sheet_from_folder(tmp_path)
-    assert sorted(sheet["image_id"]) == ["canvas_2_b_c", "canvas_one", "query"]
+    assert sorted(sheet["image_id"]) == ["canvas_2_b_c", "canvas_one", "query", "satin_s1", "satin_s2"]
     assert dict(zip(sheet["image_id"], sheet["fabric_class"]))["query"] == ""
     path = write_sheet(tmp_path, sheet_to_tsv(sheet))
-    assert len(load_sample_sheet(path, SAMPLE_SCHEMA)) == 3
+    assert len(load_sample_sheet(path, SAMPLE_SCHEMA)) == 5
 
 
 def test_sheet_from_empty_folder_is_an_error(tmp_path):

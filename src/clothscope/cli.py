@@ -100,7 +100,7 @@ def build_parser() -> argparse.ArgumentParser:
                                            "with, and prints one tab-separated line per photo: photo, class, posterior, "
                                            "physics JSON (or 'not classified' and the reason). Exit code 0 when any "
                                            "photo was classified, 1 when none was, 2 when the model is missing or bad.")
-    pred.add_argument("photos", nargs="+", metavar="PHOTO", help="PNG, JPEG, TIFF or OpenEXR files")
+    pred.add_argument("photos", nargs="+", metavar="PHOTO", help="PNG, JPEG, TIFF, BMP, WebP or OpenEXR files")
     pred.add_argument("--model", default="results/models/fitted",
                       help="folder with model.json and model.npz, written by the workflow's classify rule "
                            "(default: results/models/fitted; make it with: snakemake --cores 2)")

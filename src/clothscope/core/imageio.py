@@ -134,7 +134,7 @@ def _to_rgb(channels: np.ndarray) -> np.ndarray:
 
 
 def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold: float) -> DecodedImage:
-    """Decode PNG, JPEG, TIFF (or anything Pillow reads) with EXIF orientation applied."""
+    """Decode PNG, JPEG, TIFF, BMP, WebP (or anything Pillow reads) with EXIF orientation applied."""
     # Our own size limit (checked from the header, before any pixel is decoded)
     # replaces Pillow's decompression-bomb guard, so the message names the setting.
     pillow_limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None

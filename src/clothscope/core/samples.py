@@ -19,7 +19,7 @@ from clothscope.core.schema import SCHEMA_DIR, InputError, load_schema, validate
 #: The sample sheet's schema.
 SAMPLES_SCHEMA_PATH = SCHEMA_DIR / "samples.schema.yaml"
 COLUMNS = ["image_id", "path", "fabric_class", "dye_color", "source"]
-IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr"}
+IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".exr"}
 #: Files beside synthetic images that hold ground truth, never samples.
 TRUTH_MARKER = ".truth"
 
