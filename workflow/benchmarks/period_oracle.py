@@ -23,8 +23,10 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 from field_set import DECODE
 from harness import ROOT, publish, validated_config
@@ -44,12 +46,17 @@ from clothscope.prepare.image import STATUS_FILE, native_lattice, period_peak_ra
 PERIODS = ("own", "prepare", "stepped", "truth")
 
 
+def true_period(photo: Path, scale: dict) -> float | None:
+    """The true thread period as seen, in the prepared map's pixels (None: the cloth has no period)."""
+    per_working = float(scale.get("native_px_per_working_px") or 1.0)
+    truth = json.loads(truth_paths(photo)["json"].read_text(encoding="utf-8"))
+    return truth["thread_period_px"] * seen_scale(truth) / per_working if truth["periodic"] else None
+
+
 def periods_of(photo: Path, scale: dict, lattice: StructureSettings) -> dict[str, float | None]:
     """The working-pixel thread period of each of :data:`PERIODS` for one photo (None: the map's own)."""
     prepared = scale.get("working_period_px")
-    per_working = float(scale.get("native_px_per_working_px") or 1.0)
-    truth = json.loads(truth_paths(photo)["json"].read_text(encoding="utf-8"))
-    true = truth["thread_period_px"] * seen_scale(truth) / per_working if truth["periodic"] else None
+    true = true_period(photo, scale)
     stepped = prepared
     if prepared:
         side, s, found = native_lattice(decode_image(photo, *DECODE).rgb, 1024, lattice)
@@ -58,19 +65,24 @@ def periods_of(photo: Path, scale: dict, lattice: StructureSettings) -> dict[str
     return {"own": None, "prepare": prepared, "stepped": stepped, "truth": true}
 
 
+def accepted_photos(run: Path, field: Path, photo_field: str) -> Iterator[tuple[Path, str, np.ndarray, dict]]:
+    """Each photo of ``field`` that the run's ``prepare`` accepted: its path, class, described field
+    (``features.photo_field`` of the prepared photo) and ``scale`` record."""
+    for photo in sorted(field.glob("*/*.jpg")):
+        prepared = run / "prepared" / photo.stem
+        status = json.loads((prepared / STATUS_FILE).read_text(encoding="utf-8"))
+        if status.get("status") == "accepted":
+            yield photo, photo.parent.name, load_photo(prepared, photo_field).field, status.get("scale") or {}
+
+
 def set_rows(run: Path, field: Path, features: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Per image and period: the descriptor's columns (``period`` names which), and the tiles' rows alike."""
     lattice = StructureSettings(**features["structure"])
     tiles = tile_settings(features["tiles"])
     rows, tile_table = [], []
-    for photo in sorted(field.glob("*/*.jpg")):
-        image_id, fabric_class = photo.stem, photo.parent.name
-        prepared = run / "prepared" / image_id
-        status = json.loads((prepared / STATUS_FILE).read_text(encoding="utf-8"))
-        if status.get("status") != "accepted":
-            continue
-        described = load_photo(prepared, features["photo_field"]).field
-        periods = periods_of(photo, status.get("scale") or {}, lattice)
+    for photo, fabric_class, described, scale in accepted_photos(run, field, features["photo_field"]):
+        image_id = photo.stem
+        periods = periods_of(photo, scale, lattice)
         true = periods["truth"]
         periods["truth"] = true or periods["prepare"]
         ratio = (periods["prepare"] or 0.0) / true if true else None  # 0: prepare found no lattice

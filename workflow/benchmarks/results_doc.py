@@ -60,6 +60,10 @@ PERIOD_AUTO_SETS = (("three weaves 1144", "weaves_1144", "photos"), ("three weav
                     ("microscope-like weaves 1148", "microscope_1148", "photos"),
                     ("microscope-like weaves 1149", "microscope_1149", "field"),
                     ("microscope-like weaves 1150", "microscope_1150", "field"))
+#: The sets of ``descriptor_candidates.py``, one report per kind of capture (title, report suffix, folders under results/).
+DESCRIPTOR_SETS = (("four phone-lit weave sets", "weaves", ("weaves_1140", "weaves_1143", "weaves_1144", "weaves_1145")),
+                   ("four microscope-like sets", "microscope",
+                    ("microscope", "microscope_1148", "microscope_1149", "microscope_1150")))
 #: The benchmark that refeatures a run with the config's defaults (period_source auto), fits reused.
 PERIOD_AUTO_RERUN = "setting_gain.py --rerun config/config.yaml --drop features/photo --drop features/fitted"
 
@@ -495,6 +499,12 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/period_oracle.py --set results/microscope/run results/microscope/field "
                         "--set results/weaves_1140/run results/weaves_1140/field --set results/weaves_1143/run "
                         "results/weaves_1143/field --name period_oracle_more"),
+        *(BenchmarkReport(f"Generic descriptors of the photo beside its structure descriptor: {kind}",
+                          (f"bench/descriptor_candidates_{name}.md",),
+                          f"{py}/descriptor_candidates.py "
+                          + " ".join(f"--set results/{folder}/run results/{folder}/field" for folder in folders)
+                          + f" --name descriptor_candidates_{name}")
+          for kind, name, folders in DESCRIPTOR_SETS),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "
@@ -636,6 +646,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"(--alone 1 --jobs 0), then here {py}/gpu_presets.py --report --out results/bench/gpu_jobs"),
         BenchmarkReport("The normal-map step: backward pass and freezing", ("bench/backward_pass.md",),
                         f"{py}/backward_pass.py"),
+        BenchmarkReport("The normal-map stage's forward render, part by part", ("bench/render_split.md",),
+                        f"{py}/render_split.py"),
         BenchmarkReport("The normal-map step on a CUDA GPU: backward pass and freezing", ("bench/backward_pass_cuda.md",),
                         f"{py}/backward_pass.py --variant cuda_ad_rgb --name backward_pass_cuda"),
         BenchmarkReport("The normal-map step on a CUDA GPU, normal map without the hardware texture",
