@@ -379,14 +379,14 @@ def test_shadows_are_missing_only_from_the_unshadowed_integrator(mi):
     assert unshadowed.mean() > 1.05 * direct.mean()
 
 
-def height_gradient(mi, fit: FitScene, height: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """Derivative of the squared error between a 32 px render of ``fit`` with relief ``height`` and ``target``."""
+def height_gradient(mi, fit: FitScene, height: np.ndarray, target: np.ndarray, scene=None) -> np.ndarray:
+    """Derivative of the squared error between a 32 px render of ``fit`` (or of ``scene``) with relief ``height`` and ``target``."""
     import drjit as dr
 
     from clothscope.fit.normals import neighbour_indices, normal_texture
 
     size = height.shape[0]
-    scene = build_scene(mi, fit, 32, {"type": "direct_unshadowed"}, "independent")
+    scene = scene or build_scene(mi, fit, 32, {"type": "direct_unshadowed"}, "independent")
     params = mi.traverse(scene)
     latent = mi.Float(height.ravel())
     dr.enable_grad(latent)
@@ -410,6 +410,40 @@ def test_unshadowed_backward_pass_gives_mitsubas_gradient_without_rendering_the_
     through_the_film = height_gradient(mi, fit, height, target)
     assert np.all(np.isfinite(direct)) and np.abs(through_the_film).max() > 0
     assert np.allclose(direct, through_the_film, rtol=1e-4, atol=1e-6 * np.abs(through_the_film).max())
+
+
+def test_kept_intersections_give_the_same_render_and_gradient_and_stay_within_the_cache(mi):
+    """A second render with the same seeds reuses the intersections: same image and gradient as a fresh integrator."""
+    rng = np.random.default_rng(1)
+    fit = FitScene(FitCamera(), FitLight(35.0, 60.0), folded_grid(0.03), 0.06, Material((0.6, 0.3, 0.2), 0.5, 0.3))
+    height = rng.normal(scale=0.5, size=(16, 16)).astype(np.float32)
+    target = rng.uniform(0.0, 0.3, size=(32, 32, 3)).astype(np.float32)
+    fresh = build_scene(mi, fit, 32, {"type": "direct_unshadowed"}, "independent")
+    kept = build_scene(mi, fit, 32, {"type": "direct_unshadowed", "intersection_cache": 2}, "independent")
+    expected = height_gradient(mi, fit, height, target, fresh)
+    first = height_gradient(mi, fit, height, target, kept)
+    assert len(kept.integrator().cache) == 2  # the primal and the gradient pass of seeds 3 and 4
+    again = height_gradient(mi, fit, height, target, kept)  # from the kept intersections
+    assert np.array_equal(again, first) and np.abs(expected).max() > 0
+    assert np.allclose(first, expected, rtol=1e-5, atol=1e-6 * np.abs(expected).max())
+    image = np.array(mi.render(kept, spp=4, seed=9))
+    assert len(kept.integrator().cache) == 2  # the oldest pass made room for seed 9
+    assert np.allclose(image, np.array(mi.render(fresh, spp=4, seed=9)), rtol=1e-5, atol=1e-7)
+
+
+def test_seed_cycle_repeats_the_render_seeds(mi):
+    seeds = []
+
+    def loss(opt, seed):
+        seeds.append(seed)
+        return dr.sum(dr.square(opt["x"] - 1.0))
+
+    import drjit as dr
+
+    optimise(mi, {"x": np.zeros(1, np.float32)}, loss, LoopSettings(7, 0.1, sample_seed=2, seed_cycle=3), LOG, "cycle")
+    assert seeds == [render_seed(2, it % 3) for it in range(7)]
+    with pytest.raises(ValueError, match="seed_cycle"):
+        LoopSettings(7, 0.1, seed_cycle=-1)
 
 
 def test_only_a_box_filter_without_border_samples_takes_the_direct_backward_pass(mi):

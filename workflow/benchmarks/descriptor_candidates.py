@@ -24,7 +24,6 @@ sets given as one pool: the same images with more training images per class. Wri
 """
 from __future__ import annotations
 
-import argparse
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -32,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from harness import ROOT, publish, validated_config
-from period_oracle import accepted_photos, true_period
+from period_oracle import accepted_photos, set_parser, true_period
 from scipy import ndimage
 from skimage.feature import graycomatrix, graycoprops, local_binary_pattern
 
@@ -193,12 +192,7 @@ def summary(table: pd.DataFrame) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--set", nargs=2, action="append", type=Path, required=True, metavar=("RUN", "FIELD"),
-                        help="a finished run and the field folder its photos came from")
-    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
-    parser.add_argument("--name", default="descriptor_candidates", help="report name (<out>/<name>.{csv,md})")
-    args = parser.parse_args()
+    args = set_parser(__doc__.splitlines()[0], "descriptor_candidates").parse_args()
     config = validated_config()
     tables = [set_rows(run.resolve(), field.resolve(), config["features"]) for run, field in args.set]
     out = [row for table in tables for row in scores(table, table["run"].iloc[0], config)]

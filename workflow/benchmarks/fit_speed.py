@@ -14,7 +14,7 @@ the files the sheet names (a field set's 1024-2048 px photos, for example), and
 the table adds the prepare job's seconds and memory, the photo's native size and
 ``image_s`` (prepare and fit).
 
-    .venv/bin/python workflow/benchmarks/fit_speed.py [--variants default,lean,fast] [--images ...] [--rounds 2]
+    .venv/bin/python workflow/benchmarks/fit_speed.py [--variants default,lean,fast,seed_cycle] [--images ...] [--rounds 2]
         [--sheet config/samples.tsv] [--prepare]
 
 Writes ``<out>/fit_speed.csv`` (one row per image, variant and round) and
@@ -40,6 +40,8 @@ VARIANTS: dict[str, tuple[str, dict]] = {
     # fewer material and joint steps, a 1-sample gradient pass: rejected on a confirmation set (docs/design.md)
     "lean": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "lean_fit.yaml").read_text())),
     "fast": ("fast", {}),
+    # the normal-map stage cycles through 16 seeds and reuses their intersections (docs/design.md)
+    "seed_cycle": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "seed_cycle.yaml").read_text())),
 }
 
 

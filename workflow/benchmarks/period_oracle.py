@@ -136,13 +136,18 @@ def summary(table: pd.DataFrame) -> str:
     return "\n".join(lines + [""])
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def set_parser(description: str, name: str) -> argparse.ArgumentParser:
+    """The command line of a benchmark over field sets: ``--set RUN FIELD`` (repeated), ``--out`` and ``--name``."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--set", nargs=2, action="append", type=Path, required=True, metavar=("RUN", "FIELD"),
                         help="a finished run and the field folder its photos came from")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
-    parser.add_argument("--name", default="period_oracle", help="report name (<out>/<name>.{csv,md})")
-    args = parser.parse_args()
+    parser.add_argument("--name", default=name, help="report name (<out>/<name>.{csv,md})")
+    return parser
+
+
+def main() -> None:
+    args = set_parser(__doc__.splitlines()[0], "period_oracle").parse_args()
     config = validated_config()
     table = pd.DataFrame([row for run, field in args.set for row in scores(run.resolve(), field.resolve(), config)])
     publish(args.out, args.name, table, summary(table))

@@ -1,7 +1,7 @@
 """Benchmark: where the normal-map stage's forward render spends its time.
 
     .venv/bin/python workflow/benchmarks/render_split.py [--run results] [--images SUBSET] [--calls 15]
-        [--threads 1] [--variant llvm_ad_rgb] [--name render_split]
+        [--threads N] [--variant llvm_ad_rgb] [--name render_split]
 
 The normal-map stage's iteration is a forward render and its backward pass
 (``backward_pass.py`` times the whole step). This splits the forward render of the
@@ -119,16 +119,17 @@ def main() -> None:
     parser.add_argument("--images", default=SUBSET, help="comma-separated image ids")
     parser.add_argument("--calls", type=int, default=15, help="timed renders per part and image")
     parser.add_argument("--warm-up", type=int, default=3, help="untimed renders first (tracing, kernel cache)")
-    parser.add_argument("--threads", type=int, default=1, help="Dr.Jit threads")
+    parser.add_argument("--threads", type=int, help="Dr.Jit threads (default: the config's fit.threads)")
     parser.add_argument("--variant", default="llvm_ad_rgb")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     parser.add_argument("--name", default="render_split", help="report name (<out>/<name>.{csv,md})")
     args = parser.parse_args()
     config = validated_config()
+    threads = args.threads or config["fit"]["threads"]
     rows = [row for image in args.images.split(",")
-            for row in image_rows(args.run.resolve(), image, args.variant, args.threads, args.calls, args.warm_up, config)]
+            for row in image_rows(args.run.resolve(), image, args.variant, threads, args.calls, args.warm_up, config)]
     normals = config["fit"]["normals"]
-    settings = (f"{args.variant}, {args.threads} thread(s), {normals['resolution']} px, {normals['spp']} spp, "
+    settings = (f"{args.variant}, {threads} thread(s), {normals['resolution']} px, {normals['spp']} spp, "
                 f"{normals['sampler']} sampler")
     table = pd.DataFrame(rows)
     publish(args.out, args.name, table, summary(table, settings), float_format="%.2f")

@@ -631,7 +631,13 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/effects_ablation.py --images all --out results/bench/effects_all"),
         BenchmarkReport("Fit time per image, kernel cache cold and warm", ("bench/fit_timing/fit_timing.md",),
                         f"{py}/fit_timing.py"),
-        BenchmarkReport("Fit time per image, settings side by side", ("bench/fit_speed/fit_speed.md",), f"{py}/fit_speed.py"),
+        BenchmarkReport("Fit time per image, settings side by side", ("bench/fit_speed/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants default,lean,fast"),
+        BenchmarkReport("Fit time per image, reused intersections against the default", ("bench/fit_speed_cycle/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants default,seed_cycle --out results/bench/fit_speed_cycle"),
+        BenchmarkReport("Reused intersections: the figures a change to the fit must keep", ("bench/seed_cycle_figures/run_figures.md",),
+                        f"{py}/run_figures.py results results/exp_cycle/design results/holdout_1151/run "
+                        "results/exp_cycle/holdout_1151 --out results/bench/seed_cycle_figures"),
         BenchmarkReport("Fit time per image on field photos, prepare included", ("bench/fit_speed_field/fit_speed.md",),
                         f"{py}/fit_speed.py --sheet results/weaves/field/samples.tsv --prepare --variants default --rounds 1 "
                         f"--images {FIELD_TIMED} --out results/bench/fit_speed_field"),

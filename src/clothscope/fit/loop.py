@@ -44,6 +44,7 @@ class LoopSettings:
     uniform: bool = False  # Uniform Adam (Nicolet et al. 2021): one second moment, the largest, per variable
     rates: dict[str, float] = field(default_factory=dict)  # variable -> its own learning rate, halved on restarts too
     sample_seed: int = 0  # the config's fit.sample_seed: iteration i renders with render_seed(sample_seed, i)
+    seed_cycle: int = 0  # > 0: iteration i renders with the seed of iteration i mod seed_cycle (the same rays again)
 
     def __post_init__(self) -> None:
         if self.keep not in ("best", "last"):
@@ -52,6 +53,8 @@ class LoopSettings:
             raise ValueError(f"iterations must be >= 0, got {self.iterations}")
         if not self.learning_rate > 0:
             raise ValueError(f"learning_rate must be > 0, got {self.learning_rate}")
+        if self.seed_cycle < 0:
+            raise ValueError(f"seed_cycle must be >= 0, got {self.seed_cycle}")
 
 
 @dataclass
@@ -105,7 +108,7 @@ def optimise(mi: Any, initial: Variables, loss_fn: Callable[[dict[str, Any], int
     result = LoopResult(best={k: v.copy() for k, v in initial.items()}, best_loss=math.inf)
     restarts, since_progress, started = 0, 0, time.perf_counter()
     for it in range(settings.iterations):
-        loss = loss_fn(opt, render_seed(settings.sample_seed, it))
+        loss = loss_fn(opt, render_seed(settings.sample_seed, it % settings.seed_cycle if settings.seed_cycle else it))
         value = float(loss.array[0] if hasattr(loss, "array") else loss[0])
         blow_up = not math.isfinite(value) or (math.isfinite(result.best_loss) and value > settings.climb_factor * result.best_loss)
         if blow_up:

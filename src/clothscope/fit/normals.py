@@ -76,7 +76,7 @@ from scipy import ndimage
 from scipy.special import expit
 
 from clothscope.fit.colour import ColourModel
-from clothscope.fit.effects import Plan
+from clothscope.fit.effects import UNSHADOWED, Plan
 from clothscope.fit.large_steps import HeightSteps
 from clothscope.fit.loop import LoopSettings, optimise, render, sigmoid
 from clothscope.fit.material import apply_material, material_from_latents, material_latents
@@ -119,6 +119,7 @@ class NormalSettings:
     colour_model: str  # auto, one_colour or dye_layout (clothscope.fit.colour)
     initial_relief: str  # flat, or shading: the height map starts bright-high, dark-low (see initial_height)
     initial_slope: float  # RMS slope of the shading start (tangent of the tilt)
+    seed_cycle: int  # > 0: iterations cycle through this many seeds and the renders reuse their intersections
     cavity: float  # > 0: the base colour is darkened where the height lies below its ring mean (see cavity_factor)
 
 
@@ -251,6 +252,14 @@ def relief_prior(settings: NormalSettings, light: FitLight) -> tuple[NormalSetti
     return replace(settings, smoothness=smoothness), record
 
 
+def stage_integrator(plan: Plan, seed_cycle: int) -> dict[str, Any]:
+    """The plan's integrator; with ``seed_cycle`` > 0, ours keeps the intersections of the cycle's primal and gradient renders."""
+    integrator = plan.integrator_dict()
+    if seed_cycle > 0 and integrator["type"] == UNSHADOWED:
+        integrator["intersection_cache"] = 2 * seed_cycle
+    return integrator
+
+
 def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: NormalSettings,
                 log: logging.Logger, colour: ColourModel | None, sample_seed: int) -> tuple[np.ndarray, Material, list[Any], np.ndarray | None]:
     """Fit the height map (and shade), then with the BSDF jointly; returns height, material, loop results, shade.
@@ -264,7 +273,7 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     cavity = settings.cavity > 0
     textured = shaded or layout_np is not None or cavity
     layout = None if layout_np is None else tuple(mi.Float(layout_np[..., c].ravel()) for c in range(3))
-    scene = build_scene(mi, fit, target.resolution, plan.integrator_dict(), settings.sampler,
+    scene = build_scene(mi, fit, target.resolution, stage_integrator(plan, settings.seed_cycle), settings.sampler,
                         normal_texture=flat_normal_texture(size), sample_border=plan.projective,
                         albedo_texture=shaded_texture(fit.material, np.ones((size, size)), layout_np) if textured else None)
     params = mi.traverse(scene)
@@ -297,7 +306,8 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
         height0["shade"] = np.full(size * size, SHADE_LATENT0, dtype=np.float32)
     uniform = steps is not None
     first = optimise(mi, height0, loss_fn, LoopSettings(settings.iterations, settings.learning_rate, settings.patience,
-                                                        settings.min_improvement, uniform=uniform, sample_seed=sample_seed), log, "normals")
+                                                        settings.min_improvement, uniform=uniform, sample_seed=sample_seed,
+                                                        seed_cycle=settings.seed_cycle), log, "normals")
     joint_start = first.best | fixed
     heights = lambda latents: np.asarray(latents["height"] if steps is None else steps.solve(latents["height"]),  # noqa: E731
                                          dtype=np.float64).reshape(size, size)
@@ -308,7 +318,8 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     # roughness stops drifting, and the lowest noisy loss would favour rough lobes (see clothscope.fit.loop)
     second = optimise(mi, joint_start, loss_fn, LoopSettings(settings.joint_iterations, settings.joint_learning_rate,
                                                              keep="last", uniform=uniform,
-                                                             rates={"height": settings.joint_height_learning_rate}, sample_seed=sample_seed),
+                                                             rates={"height": settings.joint_height_learning_rate}, sample_seed=sample_seed,
+                                                             seed_cycle=settings.seed_cycle),
                      log, "normals+bsdf")
     best = second.best if second.best_loss <= first.best_loss else joint_start
     material = material_from_latents({k: best[k] for k in fixed}, settings.min_roughness)
