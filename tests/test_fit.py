@@ -431,15 +431,22 @@ def test_kept_intersections_give_the_same_render_and_gradient_and_stay_within_th
     assert np.allclose(image, np.array(mi.render(fresh, spp=4, seed=9)), rtol=1e-5, atol=1e-7)
 
 
-def test_seed_cycle_repeats_the_render_seeds(mi):
+def test_seed_cycle_repeats_the_render_seeds_and_keeps_only_our_integrators_intersections(mi):
+    import drjit as dr
+
+    from clothscope.fit.normals import stage_integrator
+
     seeds = []
 
     def loss(opt, seed):
         seeds.append(seed)
         return dr.sum(dr.square(opt["x"] - 1.0))
 
-    import drjit as dr
-
+    flat = geometry_evidence(plane_grid(FitCamera(), 16, 0.06), FitCamera(), FitLight(30.0, 45.0))
+    shadowed = Evidence(cast_shadows=True)
+    assert stage_integrator(plan_stage("normals", flat), 16) == {"type": "direct_unshadowed", "intersection_cache": 32}
+    assert stage_integrator(plan_stage("normals", flat), 0) == {"type": "direct_unshadowed"}
+    assert "intersection_cache" not in stage_integrator(plan_stage("normals", shadowed), 16)  # Mitsuba's direct
     optimise(mi, {"x": np.zeros(1, np.float32)}, loss, LoopSettings(7, 0.1, sample_seed=2, seed_cycle=3), LOG, "cycle")
     assert seeds == [render_seed(2, it % 3) for it in range(7)]
     with pytest.raises(ValueError, match="seed_cycle"):

@@ -19,7 +19,7 @@ Dr.Jit runs only the backward kernel. Any other film falls back to Mitsuba's pas
 
 With ``intersection_cache`` N > 0 it also keeps the ray-mesh intersections of
 the last N (pass, seed, samples) renders and reuses them when the same rays come
-again: about half of a render's time (``workflow/benchmarks/render_split.py``).
+again (``workflow/benchmarks/render_split.py`` times a render's parts).
 The rays repeat only when a fit cycles through a fixed set of seeds
 (``fit.normals.seed_cycle``), and the cache is right only while no vertex moves,
 which holds in the normal-map stage, where the geometry is fixed.
