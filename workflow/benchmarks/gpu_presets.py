@@ -20,7 +20,8 @@ its ``reports/fit_accuracy.csv``).
 Rows of ``<out>/gpu_presets.csv`` (one per image, preset and mode) are replaced per preset, so
 presets can be run one call at a time; ``<out>/gpu_presets.md`` summarises all of them. To compare
 job counts, run each into a folder of its own under one ``--out`` (``<out>/j16``, ``<out>/j24``) and
-write their common report with ``--report --out <out>``.
+write their common report with ``--report --out <out>``. ``--collect WALL_S`` writes the whole-sheet rows of a run
+whose script was stopped before it wrote them (the run's folder kept), with the wall seconds Snakemake logged.
 With ``--variant cuda_ad_rgb`` (the default) it needs a CUDA GPU that Dr.Jit can start, and
 exits with an error otherwise; ``--variant llvm_ad_rgb`` runs the same on the CPU.
 """
@@ -100,6 +101,12 @@ def run_mode(results: Path, run: Run, images: list[str], jobs: int, budget_s: fl
     if not complete and done:  # the reports of the images that finished (no fitting left to do)
         sheet = write_sheet(done, results / "samples_finished.tsv")
         run_workflow(results, run, sheet, jobs, 600.0, targets(results, False))
+    return mode_rows(results, run, images, jobs, wall, complete)
+
+
+def mode_rows(results: Path, run: Run, images: list[str], jobs: int, wall: float, complete: bool) -> pd.DataFrame:
+    """One row per image of a finished or stopped run in ``results``: stage costs, and fit accuracy where it finished."""
+    done = finished_images(results, images)
     report = results / "reports" / "fit_accuracy.csv"
     accuracy = pd.read_csv(report) if report.is_file() else pd.DataFrame({"image_id": []})
     accuracy = accuracy[accuracy["image_id"].isin(done)].drop(columns=[c for c in accuracy if c.endswith("_s") or "rss" in c])
@@ -163,7 +170,9 @@ def against_cpu(table: pd.DataFrame, cpu_report: Path) -> str:
 def paper_beside_default(table: pd.DataFrame) -> str:
     """Each image the ``paper`` preset fitted on the GPU, with the default preset's fit of the same image there (whole sheet)."""
     figures = ["fit_s", "psnr_db", "fold_normal_error_deg", "roughness_error", "period_error"]
-    fitted = table[table["status"] == "fitted"] if "status" in table else table.iloc[:0]
+    if "status" not in table or not set(figures) <= set(table):  # no image of any run finished its fit
+        return ""
+    fitted = table[table["status"] == "fitted"]
     fitted = fitted[fitted["variant"] == "cuda_ad_rgb"]
     paper = fitted[fitted["preset"] == "paper"]
     default = fewest_jobs(fitted[(fitted["preset"] == "default") & (fitted["mode"] == "sheet")])
@@ -175,6 +184,11 @@ def paper_beside_default(table: pd.DataFrame) -> str:
                       both.round(4).to_markdown(index=False), ""])
 
 
+def dashed(table: pd.DataFrame) -> pd.DataFrame:
+    """``table`` with ``-`` where a figure is missing (a stage or a fit that did not finish)."""
+    return table.astype(object).where(table.notna(), "-")
+
+
 def markdown(table: pd.DataFrame, cpu_report: Path) -> str:
     """The summary table with how it was measured, and the default preset against a CPU run."""
     lines = ["# Fidelity presets per device: one image alone and the whole sheet side by side", "",
@@ -184,7 +198,7 @@ def markdown(table: pd.DataFrame, cpu_report: Path) -> str:
              "(run wall seconds per image = throughput). Fit seconds are the three stages' `benchmark:` "
              "files summed, each a separate process (Python start, imports, scene build and kernel compilation included); "
              "loops: the three optimisation loops alone, by the clock of their `loss.csv`.", "",
-             summary(table).round(3).to_markdown(index=False), "",
+             dashed(summary(table).round(3)).to_markdown(index=False), "",
              against_cpu(table, cpu_report), paper_beside_default(table),
              "LOOCV: `workflow/benchmarks/tiles_gain.py <out>/default --name gpu_scores` on the feature tables.", ""]
     return "\n".join(lines)
@@ -213,6 +227,10 @@ def main() -> int:
     parser.add_argument("--report", action="store_true",
                         help="only rewrite <out>/gpu_presets.md from <out>/gpu_presets.csv (or, where there is none, "
                              "from the gpu_presets.csv of its folders together: runs with other --jobs)")
+    parser.add_argument("--collect", type=float, metavar="WALL_S",
+                        help="write the whole-sheet rows of a run stopped before its own report (its folder under --out kept; "
+                             "WALL_S: its wall seconds, from Snakemake's log) instead of running it")
+    parser.add_argument("--device", help="with --collect: the GPU's name (nvidia-smi's, on the machine that ran it)")
     args = parser.parse_args()
     out = args.out.resolve()
     if args.report:
@@ -226,7 +244,7 @@ def main() -> int:
         parser.error("--preset is required (unless --report)")
     if args.alone <= 0 and args.jobs <= 0:
         parser.error("nothing to run: give --alone or --jobs a count above 0")
-    if args.variant == "cuda_ad_rgb" and not cuda_available():
+    if args.variant == "cuda_ad_rgb" and args.collect is None and not cuda_available():
         raise SystemExit("gpu_presets: error: no CUDA GPU that Dr.Jit can start on this machine")
     if not (ROOT / "config" / "presets" / f"{args.preset}.yaml").is_file():
         raise SystemExit(f"gpu_presets: error: no preset {args.preset!r} in config/presets/")
@@ -234,12 +252,15 @@ def main() -> int:
     images = pd.read_csv(write_sheet(args.images.split(","), out / f"{run.name}.samples.tsv"), sep="\t", dtype=str)["image_id"].tolist()
     parts = []
     started = time.perf_counter()
-    if args.alone > 0:
+    if args.collect is not None:
+        rows = mode_rows(out / run.name, run, images, args.jobs, args.collect, False)
+        parts.append(rows.assign(mode="sheet", device=args.device or rows["device"]))
+    elif args.alone > 0:
         alone = run_mode(out / f"{run.name}-alone", run, images[:: max(len(images) // args.alone, 1)][: args.alone], 1,
                          args.budget_s, False)
         parts.append(alone.assign(mode="alone"))
     remaining = args.budget_s - (time.perf_counter() - started)
-    if args.jobs > 0:
+    if args.jobs > 0 and args.collect is None:
         parts.append(run_mode(out / run.name, run, images, args.jobs, remaining, True).assign(mode="sheet"))
     table = pd.concat(parts, ignore_index=True)
     previous = out / "gpu_presets.csv"

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-from harness import ROOT, shown
+from harness import ROOT, SUBSET, shown
 
 from clothscope.core.atomic import write_text
 from clothscope.core.config import schema_defaults
@@ -622,6 +622,12 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/gpu_presets.py --preset default --jobs 16 && {py}/gpu_presets.py --preset paper --alone 1 --jobs 0"
                         f" (on the GPU machine), then here {py}/gpu_presets.py --preset default --variant llvm_ad_rgb --jobs 0"
                         f" && {py}/gpu_presets.py --preset fast --variant llvm_ad_rgb --jobs 0"),
+        BenchmarkReport("The paper preset beside the default on a CUDA GPU, 2026-11-28", ("bench/gpu9/gpu_presets.md",),
+                        f"{py}/gpu_presets.py --preset paper --images {SUBSET} --alone 0 --jobs 7 --budget-s 360 --out results/bench/gpu9 "
+                        f"&& {py}/gpu_presets.py --preset default --alone 0 --jobs 16 --budget-s 104 --out results/bench/gpu9 "
+                        "(on the GPU machine; the first stopped at its budget before writing its rows), then here "
+                        f"{py}/gpu_presets.py --preset paper --images {SUBSET} --jobs 7 --collect 358.3 --device 'NVIDIA H200' "
+                        f"--out results/bench/gpu9 (358.3 s: Snakemake's logged time) && {py}/gpu_presets.py --report --out results/bench/gpu9"),
         BenchmarkReport("Classification from the GPU-fitted maps", ("bench/gpu_scores.md",),
                         f"{py}/tiles_gain.py results/bench/gpu/default --name gpu_scores"),
         BenchmarkReport("Normal-map stage knobs", ("reports/normals_sweep.md",), f"{py}/normals_sweep.py"),
@@ -645,6 +651,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/run_figures.py results results/exp_seed/design results/exp_lean/design results/holdout/run "
                         "results/exp_lean/holdout results/holdout_confirm/run results/exp_seed/confirm results/exp_lean/confirm "
                         "results/weaves_confirm/run results/exp_seed/weaves results/exp_lean/weaves"),
+        BenchmarkReport("Snakemake's scheduler: one pending wake-up against a wake-up chain per job event",
+                        ("bench/scheduler_wakeups/scheduler_wakeups.md",), f"{py}/scheduler_wakeups.py"),
         BenchmarkReport("Where a fit job's seconds go", ("bench/job_costs.md",), f"{py}/job_costs.py"),
         BenchmarkReport("Whole sheet on a CUDA GPU with more jobs side by side", ("bench/gpu_jobs/gpu_presets.md",),
                         f"{py}/gpu_presets.py --preset default --alone 0 --jobs J --budget-s 130 --out results/bench/gpu_jobs/jJ "

@@ -9,6 +9,7 @@ from clothscope.core.config import (
     check_threads_across,
 )
 from clothscope.core.imageio import file_problem
+from clothscope.core.scheduler import keep_one_scheduler_wakeup
 from clothscope.core.samples import SAMPLES_SCHEMA_PATH, load_sample_sheet
 from clothscope.core.schema import InputError, apply_preset, load_schema, validate
 
@@ -28,6 +29,10 @@ try:
     SAMPLES = load_sample_sheet(config["samples"], SAMPLES_SCHEMA_PATH)
 except InputError as err:
     fail(err)
+
+# Snakemake 9 adds an endless one-second wake-up chain to its scheduler on every job event
+# (clothscope/core/scheduler.py); keep one pending wake-up so the jobs keep the CPU.
+keep_one_scheduler_wakeup()
 
 RESULTS = config["results"]
 IMAGE_IDS = list(SAMPLES["image_id"])
