@@ -9,8 +9,8 @@ from clothscope.core.config import (
     check_threads_across,
 )
 from clothscope.core.imageio import file_problem
-from clothscope.core.scheduler import keep_one_scheduler_wakeup
 from clothscope.core.samples import SAMPLES_SCHEMA_PATH, load_sample_sheet
+from clothscope.core.scheduler import keep_one_scheduler_wakeup
 from clothscope.core.schema import InputError, apply_preset, load_schema, validate
 
 PRESETS = os.path.join(workflow.basedir, "config", "presets")
