@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -38,7 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, STAGES, fit_costs, publish, seed_prepared, shown, write_sheet
+from harness import ROOT, STAGES, fit_costs, fresh_run, publish, shown, write_sheet
 
 from clothscope.core.runtime import cuda_available
 
@@ -92,10 +91,7 @@ def targets(results: Path, features: bool) -> list[str]:
 
 def run_mode(results: Path, run: Run, images: list[str], jobs: int, budget_s: float, features: bool) -> pd.DataFrame:
     """Fit ``images`` (``jobs`` side by side) within the budget into the emptied ``results``; one row per image."""
-    shutil.rmtree(results, ignore_errors=True)  # fits of older code would be taken as current (mtime triggers)
-    results.mkdir(parents=True)
-    seed_prepared(results)
-    sheet = write_sheet(images, results / "samples.tsv")
+    sheet = fresh_run(results, images)
     wall, complete = run_workflow(results, run, sheet, jobs, budget_s, targets(results, features))
     done = finished_images(results, images)
     if not complete and done:  # the reports of the images that finished (no fitting left to do)

@@ -138,6 +138,15 @@ def seed_prepared(results: Path, image: str | None = None) -> None:
         shutil.copytree(source, target)
 
 
+def fresh_run(results: Path, images: list[str] | None) -> Path:
+    """Empty ``results`` (fits of older code would pass for current under mtime triggers), seed it with the main
+    run's prepared photos and write its sample sheet of ``images`` (None: every image); returns the sheet."""
+    shutil.rmtree(results, ignore_errors=True)
+    results.mkdir(parents=True)
+    seed_prepared(results)
+    return write_sheet(images, results / "samples.tsv")
+
+
 def snakemake(args: list[str], cores: int = 2, home: str | None = None, capture: bool = False) -> float:
     """Run ``snakemake --cores <cores> <args>`` in the repository; returns its wall time in seconds."""
     env = dict(os.environ, HOME=home) if home else None

@@ -1,6 +1,6 @@
 """Benchmark: the default run with Snakemake's scheduler as it comes and with one pending wake-up.
 
-    .venv/bin/python workflow/benchmarks/scheduler_wakeups.py [--images all] [--target all] [--order snakemake,one] [--out results/bench/scheduler_wakeups]
+    .venv/bin/python workflow/benchmarks/scheduler_wakeups.py [--images all] [--target all] [--order snakemake,one] [--out results/bench/scheduler_wakeups] [--report]
 
 Runs ``snakemake --cores 2 <target>`` on the sample sheet into ``<out>/<variant>/``, one variant
 after the other: ``snakemake``, the scheduler as Snakemake 9 has it (every pass of its loop starts
@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, STAGES, fit_costs, publish, seed_prepared, shown, write_sheet
+from harness import ROOT, STAGES, fit_costs, fresh_run, publish, shown
 
 #: the Snakemake process, with the workflow's scheduler change undone for ``snakemake``; writes its own CPU seconds
 #: and the timers it started to the file named by CLOTHSCOPE_SCHEDULER_STATS when it exits
@@ -50,10 +50,7 @@ VARIANTS = {"snakemake": "Snakemake's scheduler as it comes", "one": "one pendin
 
 def run_variant(variant: str, results: Path, sheet_images: list[str] | None, target: str) -> dict:
     """Run the workflow with ``variant``'s scheduler into the emptied ``results``; the run's figures."""
-    subprocess.run(["rm", "-rf", str(results)], check=True)
-    results.mkdir(parents=True)
-    seed_prepared(results)
-    sheet = write_sheet(sheet_images, results / "samples.tsv")
+    sheet = fresh_run(results, sheet_images)
     stats = results / "scheduler_stats.json"
     command = [sys.executable, "-c", DRIVER, variant, "--cores", "2", "--quiet", "--config", f"samples={sheet}",
                f"results={results}", "--", str(results / target) if "/" in target else target]
@@ -87,7 +84,8 @@ def same_outputs(first: Path, second: Path) -> list[str]:
 def markdown(table: pd.DataFrame, target: str, checks: list[str]) -> str:
     """The figures per variant, with how they were measured."""
     lines = ["# Snakemake's scheduler: a wake-up chain per job event against one pending wake-up", "",
-             f"`snakemake --cores 2 {target}` on {int(table['images'].iloc[0])} images, each variant into a fresh folder, "
+             f"`snakemake --cores 2 {target}` on {int(table['images'].iloc[0])} images, each variant into a fresh folder "
+             "(the prepared photos copied from `results/prepared` where it exists, so `prepare` does not rerun), "
              "one after the other on the same machine (Dr.Jit's kernel cache warm). `snakemake_cpu_s`: CPU seconds of the "
              "Snakemake process itself (scheduling; the jobs are processes of their own); `timers_started`: wake-up timers "
              "it started; fit seconds from the fit rules' `benchmark:` files (two jobs side by side).", ""]
@@ -102,14 +100,18 @@ def main() -> int:
     parser.add_argument("--target", default="all", help="Snakemake target (a rule name, or a path under the run's folder)")
     parser.add_argument("--order", default="snakemake,one", help="the variants in the order they run")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench" / "scheduler_wakeups")
+    parser.add_argument("--report", action="store_true", help="only rewrite the report from <out>/scheduler_wakeups.csv and the runs")
     args = parser.parse_args()
     order = args.order.split(",")
     if sorted(order) != sorted(VARIANTS):
         parser.error(f"--order: name each of {', '.join(VARIANTS)} once")
     images = None if args.images == "all" else args.images.split(",")
     out = args.out.resolve()
-    rows = [run_variant(variant, out / variant, images, args.target) for variant in order]
-    table = pd.DataFrame(rows)
+    if args.report:
+        table = pd.read_csv(out / "scheduler_wakeups.csv")
+        order = table["variant"].tolist()
+    else:
+        table = pd.DataFrame([run_variant(variant, out / variant, images, args.target) for variant in order])
     publish(out, "scheduler_wakeups", table, markdown(table, args.target, same_outputs(out / order[0], out / order[1])))
     return 0
 
