@@ -22,6 +22,8 @@ from clothscope.core.config import settings as config_settings
 from clothscope.features.structure import (
     LBP_COLUMNS,
     LBP_SCALES,
+    SPECTRUM_COLUMNS,
+    SPECTRUM_RINGS,
     STRUCTURE_COLUMNS,
     WEAVE_COLUMNS,
     StructureSettings,
@@ -29,6 +31,7 @@ from clothscope.features.structure import (
     find_lattice,
     lbp_baseline,
     spectrum,
+    spectrum_rings,
     structure_features,
     texture_columns,
     weave_rings,
@@ -106,7 +109,8 @@ def test_lbp_at_the_canonical_period_survives_a_zoom_that_moves_the_pixel_lbp(zo
     at_pixels = [texture_columns(cloth(p), SETTINGS) for p in (9.0, 9.0 * zoom)]
     at_period = [texture_columns(cloth(p), canonical) for p in (9.0, 9.0 * zoom)]
     features, diagnostics = structure_features(cloth(9.0), SETTINGS)
-    assert at_pixels[0] == features | weave_rings(diagnostics["canonical"]) | lbp_baseline(cloth(9.0))
+    assert at_pixels[0] == (features | weave_rings(diagnostics["canonical"]) | spectrum_rings(diagnostics["canonical"])
+                            | lbp_baseline(cloth(9.0)))
     assert {k: at_period[0][k] for k in STRUCTURE_COLUMNS} == {k: at_pixels[0][k] for k in STRUCTURE_COLUMNS}
     assert lbp_distance(*at_period) < 0.03
     assert lbp_distance(*at_period) < 0.5 * lbp_distance(*at_pixels)
@@ -251,6 +255,35 @@ def test_weave_rings_are_taken_in_thread_periods(zoom):
 def test_weave_rings_of_a_flat_field_are_finite_zeros():
     values = rings_of(np.full((128, 128), 0.3))
     assert list(values) == list(WEAVE_COLUMNS) and all(v == 0.0 for v in values.values())
+
+
+def canonical_grid(kind: str, size: int = 96) -> np.ndarray:
+    """A canonical field (thread period 8 px): stripes one way, or threads both ways (a square lattice)."""
+    y, x = np.mgrid[0:size, 0:size] * 2 * np.pi / 8.0
+    return np.cos(x) if kind == "stripes" else np.cos(x) + np.cos(y)
+
+
+def test_spectrum_rings_are_finite_and_a_quarter_turn_or_a_contrast_leaves_them():
+    field = cloth(8.0)[:96, :96]
+    values = spectrum_rings(field)
+    assert list(values) == list(SPECTRUM_COLUMNS) and np.isfinite(list(values.values())).all()
+    for other in (spectrum_rings(np.rot90(field)), spectrum_rings(3.0 * field + 2.0)):
+        assert max(abs(values[k] - other[k]) for k in values) < 1e-9
+
+
+def test_spectrum_rings_read_the_threads_directions_at_the_thread_frequency():
+    """At one thread frequency, stripes put their power in one direction (a second angular harmonic); a square
+    lattice in two at right angles (a fourth harmonic and no second)."""
+    ring = 1 + int(np.argmin(np.abs(np.asarray(SPECTRUM_RINGS) - 1.0)))
+    stripes, square = spectrum_rings(canonical_grid("stripes")), spectrum_rings(canonical_grid("square"))
+    assert stripes[f"p_h2_{ring}"] > 0.5 and square[f"p_h2_{ring}"] < 0.05 < 0.5 < square[f"p_h4_{ring}"]
+    assert stripes[f"p_share_{ring}"] > stripes["p_share_1"] + 2  # the power sits on the thread ring
+
+
+def test_spectrum_rings_of_a_flat_field_are_finite():
+    values = spectrum_rings(np.full((64, 64), 0.3))
+    assert all(values[f"p_share_{k}"] == pytest.approx(-9.0) for k in range(1, len(SPECTRUM_RINGS) + 1))
+    assert all(v == 0.0 for name, v in values.items() if name.startswith("p_h"))
 
 
 # --------------------------------------------------------------------------- the feature-set report

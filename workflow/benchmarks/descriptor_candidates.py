@@ -9,8 +9,9 @@ training images would. For each set (a finished run and the field folder it was 
 period (:func:`clothscope.features.structure.canonical_field`) with two thread periods, ``prepare``'s and
 the true one as seen, and described by four candidates, each rotation invariant and in thread periods:
 
-- ``polar``: the power spectrum on :data:`POLAR_RINGS` rings (log share of the power, ring maximum over
-  ring mean, and magnitudes of the angular harmonics :data:`POLAR_HARMONICS` over the ring mean);
+- ``polar``: the power spectrum on rings, the workflow's spectrum rings since 2026-11-28
+  (:func:`clothscope.features.structure.spectrum_rings`: log share of the power, ring maximum over ring mean,
+  and magnitudes of angular harmonics over the ring mean);
 - ``multi_lbp``: uniform LBP histograms (scikit-image) at :data:`LBP_SCALES` (1/8 to 3/4 of a period);
 - ``acf``: the autocorrelation on :data:`ACF_RINGS` rings (mean, maximum, minimum and angular harmonics
   :data:`ACF_HARMONICS`);
@@ -32,17 +33,19 @@ import numpy as np
 import pandas as pd
 from harness import ROOT, publish, validated_config
 from period_oracle import accepted_photos, set_parser, true_period
-from scipy import ndimage
 from skimage.feature import graycomatrix, graycoprops, local_binary_pattern
 
 from clothscope.classify.feature_sets import group_columns
 from clothscope.classify.loocv import loocv
-from clothscope.features.structure import CANONICAL_PERIOD, StructureSettings, structure_features, weave_rings
+from clothscope.features.structure import (
+    CANONICAL_PERIOD,
+    StructureSettings,
+    half_circle,
+    spectrum_rings,
+    structure_features,
+    weave_rings,
+)
 
-#: ring radii of ``polar``, in units of the thread frequency
-POLAR_RINGS = np.linspace(0.25, 1.5, 11)
-#: angular harmonics of ``polar`` (the power spectrum is point symmetric: even ones only)
-POLAR_HARMONICS = (2, 4, 6)
 #: (neighbours, radius in canonical pixels) of ``multi_lbp``
 LBP_SCALES = ((8, 1), (8, 2), (16, 4), (16, 6))
 #: ring radii of ``acf``, in thread periods
@@ -51,18 +54,8 @@ ACF_RINGS = np.arange(0.5, 3.01, 0.25)
 ACF_HARMONICS = (2, 4, 6, 8, 12)
 #: pixel offsets of ``glcm`` on the canonical field
 GLCM_DISTANCES = (1, 2, 4, 6, 8, 12, 16)
-#: angles sampled on each ring
-RING_ANGLES = 72
 #: the thread periods compared
 PERIODS = ("prepare", "truth")
-
-
-def _ring(values: np.ndarray, radius: float) -> np.ndarray:
-    """``values`` (centred on its middle pixel) on a half circle of ``radius`` pixels, bilinear: enough for a
-    point-symmetric map, whose full-circle harmonic ``h`` is the half circle's ``h // 2``."""
-    centre = values.shape[0] // 2
-    angles = np.linspace(0, np.pi, RING_ANGLES, endpoint=False)
-    return ndimage.map_coordinates(values, [centre + radius * np.sin(angles), centre + radius * np.cos(angles)], order=1)
 
 
 def _square(canonical: np.ndarray) -> np.ndarray:
@@ -72,20 +65,8 @@ def _square(canonical: np.ndarray) -> np.ndarray:
 
 
 def polar(canonical: np.ndarray) -> dict[str, float]:
-    """Power spectrum (Hann window, 3x3 mean) on rings in units of the thread frequency."""
-    field = _square(canonical)
-    side = field.shape[0]
-    window = np.outer(np.hanning(side), np.hanning(side))
-    power = ndimage.uniform_filter(np.fft.fftshift(np.abs(np.fft.fft2(field * window)) ** 2), 3)
-    total, out = power.sum() + 1e-30, {}
-    for k, rho in enumerate(POLAR_RINGS):
-        ring = _ring(power, rho * side / CANONICAL_PERIOD)
-        mean = ring.mean() + 1e-30
-        out[f"polar_share_{k}"] = float(np.log10(mean * side * side / total + 1e-9))
-        out[f"polar_peak_{k}"] = float(np.log10(ring.max() / mean + 1e-9))
-        harmonics = np.abs(np.fft.rfft(ring)) / (len(ring) * mean)
-        out |= {f"polar_h{h}_{k}": float(harmonics[h // 2]) for h in POLAR_HARMONICS}
-    return out
+    """The workflow's spectrum rings (:func:`clothscope.features.structure.spectrum_rings`), named ``polar_*``."""
+    return {"polar_" + name[len("p_"):]: value for name, value in spectrum_rings(canonical).items()}
 
 
 def multi_lbp(canonical: np.ndarray) -> dict[str, float]:
@@ -109,7 +90,7 @@ def acf(canonical: np.ndarray) -> dict[str, float]:
     correlation /= correlation[side, side] + 1e-30
     out = {}
     for k, periods in enumerate(ACF_RINGS):
-        ring = _ring(correlation, periods * CANONICAL_PERIOD)
+        ring = half_circle(correlation, periods * CANONICAL_PERIOD)
         out |= {f"acf_mean_{k}": float(ring.mean()), f"acf_max_{k}": float(ring.max()), f"acf_min_{k}": float(ring.min())}
         harmonics = np.abs(np.fft.rfft(ring)) / len(ring)
         out |= {f"acf_h{h}_{k}": float(harmonics[h // 2]) for h in ACF_HARMONICS}

@@ -20,7 +20,14 @@ from scipy.stats import binomtest
 from clothscope.classify.loocv import loocv
 from clothscope.core.atomic import write_text
 from clothscope.features.sources import STATUS_OK
-from clothscope.features.structure import LBP_COLUMNS, SHADE_COLUMNS, STRUCTURE_COLUMNS, TILE_FEATURES, WEAVE_COLUMNS
+from clothscope.features.structure import (
+    LBP_COLUMNS,
+    SHADE_COLUMNS,
+    SPECTRUM_COLUMNS,
+    STRUCTURE_COLUMNS,
+    TILE_FEATURES,
+    WEAVE_COLUMNS,
+)
 
 #: Column groups of a feature table.
 BRDF_COLUMNS = ("roughness", "specular_norm")
@@ -43,7 +50,8 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
     ``x_*`` extras; ``structure``: ``s_*`` and the weave rings ``w_*``; ``brdf``: roughness and
     specular_norm; ``structure_brdf``: both; ``profile``: the radial
     profile ``s_prof_*``; ``profile_brdf``: it and the BRDF; ``lbp``: the LBP
-    baseline; ``texture``: structure and LBP; ``texture_brdf``: with the BRDF; ``shade``: ``a_*``,
+    baseline; ``spectrum``: structure and the spectrum rings ``p_*``; ``texture``: structure and LBP;
+    ``texture_brdf``: with the BRDF; ``shade``: ``a_*``,
     the structure descriptor of a fitted shade texture;
     ``texture_shade_brdf``: ``texture_brdf`` and ``shade`` together.
     """
@@ -54,7 +62,7 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
     structure = STRUCTURE_COLUMNS + WEAVE_COLUMNS
     wanted = {"structure": structure, "brdf": BRDF_COLUMNS, "lbp": LBP_COLUMNS,
               "structure_brdf": structure + BRDF_COLUMNS, "profile": profile, "profile_brdf": profile + BRDF_COLUMNS,
-              "texture": structure + LBP_COLUMNS,
+              "spectrum": structure + SPECTRUM_COLUMNS, "texture": structure + LBP_COLUMNS,
               "texture_brdf": structure + LBP_COLUMNS + BRDF_COLUMNS, "shade": SHADE_COLUMNS,
               "texture_shade_brdf": structure + LBP_COLUMNS + SHADE_COLUMNS + BRDF_COLUMNS}.get(group)
     if wanted is None:
@@ -106,6 +114,7 @@ FEATURE_SETS = (
                (("fitted", "texture_brdf"),)),
     FeatureSet("paper_photo", "Algorithm 2 on the photo's grey levels", (("photo", "paper"),)),
     FeatureSet("structure_photo", "structure descriptor of the photo's luminance", (("photo", "structure"),)),
+    FeatureSet("spectrum_photo", "structure descriptor and spectrum rings of the photo's luminance", (("photo", "spectrum"),)),
     FeatureSet("lbp_photo", "uniform LBP histograms (8/1, 16/2, 24/3) of the photo's luminance", (("photo", "lbp"),)),
     FeatureSet("fitted_plus_photo", "structure + BRDF from the fit, with the photo's structure descriptor",
                (("fitted", "structure_brdf"), ("photo", "structure"))),

@@ -44,6 +44,13 @@ the threads form, in terms that are invariant by construction:
   (a plain weave after two, a twill after three or four along a diagonal, a
   satin after five), which the LBP's quarter-period radius cannot see.
 
+* **spectrum rings** (:func:`spectrum_rings`, ``p_*``): the canonical field's
+  power spectrum on circles of :data:`SPECTRUM_RINGS` thread frequencies, each
+  summed up by its log share of the power, its largest over its mean power and
+  the magnitudes of its angular harmonics :data:`SPECTRUM_HARMONICS` over its
+  mean: where the weave rings read the lattice in space, these read it in
+  frequency, finer than the ten-ring radial profile and with the angles.
+
 :func:`lbp_baseline` is the plain texture baseline of the feature-set report:
 uniform LBP histograms at 8/1, 16/2 and 24/3 neighbours/radius on the field as
 it is (no scale normalisation), or, with ``lbp_scale: canonical``, on the
@@ -78,6 +85,10 @@ RING_PERIODS = (0.5, 1.0, 1.41, 1.5, 2.0, 2.24, 3.0)
 RING_ANGLES = 72
 #: Numbers kept per weave ring.
 RING_STATISTICS = ("max", "min", "mean", "h2", "h4")
+#: Radii of the spectrum rings, in thread frequencies (a weave repeat's peaks lie below 1, harmonics above).
+SPECTRUM_RINGS = tuple(float(r) for r in np.linspace(0.25, 1.5, 11))
+#: Angular harmonics kept per spectrum ring (the power spectrum is point symmetric: even ones only).
+SPECTRUM_HARMONICS = (2, 4, 6)
 #: (neighbours, radius) of the LBP baseline.
 LBP_SCALES = ((8, 1), (16, 2), (24, 3))
 
@@ -89,9 +100,11 @@ STRUCTURE_COLUMNS = (
     *[f"s_lbp_{k}" for k in range(10)],
 )
 WEAVE_COLUMNS = tuple(f"w_{stat}_{k}" for k in range(1, len(RING_PERIODS) + 1) for stat in RING_STATISTICS)
+SPECTRUM_COLUMNS = tuple(f"p_{stat}_{k}" for k in range(1, len(SPECTRUM_RINGS) + 1)
+                         for stat in ("share", "peak", *(f"h{h}" for h in SPECTRUM_HARMONICS)))
 LBP_COLUMNS = tuple(f"lbp_{p}_{r}_{k}" for p, r in LBP_SCALES for k in range(p + 2))
 #: Columns a tile (:func:`clothscope.features.tiles.tile_columns`) re-describes; its image's row gives the others (the BSDF, the paper's features).
-TILE_FEATURES = (*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *LBP_COLUMNS)
+TILE_FEATURES = (*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *SPECTRUM_COLUMNS, *LBP_COLUMNS)
 #: The structure descriptor of a fitted shade (albedo) texture: ``a_`` + each structure column.
 SHADE_PREFIX = "a_"
 SHADE_COLUMNS = tuple(SHADE_PREFIX + name for name in STRUCTURE_COLUMNS)
@@ -340,6 +353,43 @@ def weave_rings(canonical: np.ndarray) -> dict[str, float]:
     return out
 
 
+def half_circle(values: np.ndarray, radius: float) -> np.ndarray:
+    """``values`` (centred on its middle pixel) on a half circle of ``radius`` pixels, :data:`RING_ANGLES` bilinear
+    samples: enough for a point-symmetric map, whose full-circle harmonic ``h`` is the half circle's ``h // 2``."""
+    centre = values.shape[0] // 2
+    angles = np.linspace(0, np.pi, RING_ANGLES, endpoint=False)
+    return ndimage.map_coordinates(values, [centre + radius * np.sin(angles), centre + radius * np.cos(angles)], order=1)
+
+
+def spectrum_rings(canonical: np.ndarray) -> dict[str, float]:
+    """The ``p_*`` columns: the canonical field's power spectrum on circles of :data:`SPECTRUM_RINGS` thread frequencies.
+
+    The spectrum is that of the centred square (mean removed, Hann window), smoothed
+    3x3. Per circle: ``p_share``, log10 of its mean power over the mean power of the
+    whole spectrum; ``p_peak``, log10 of its largest over its mean power; ``p_h2``,
+    ``p_h4``, ``p_h6``, the magnitudes of those angular harmonics over its mean power.
+    All are unchanged by a rotation or a rescaling of the field's values; a flat field
+    reads ``p_share`` at -9 and every other column at 0.
+    """
+    side = min(canonical.shape)
+    square = np.asarray(canonical, dtype=np.float64)[:side, :side]
+    if np.ptp(square) <= 1e-12 * max(1.0, float(np.abs(square).max())):  # a flat field: no power on any ring
+        return {name: -9.0 if name.startswith("p_share_") else 0.0 for name in SPECTRUM_COLUMNS}
+    square = square - square.mean()
+    hann = np.outer(np.hanning(side), np.hanning(side))
+    power = ndimage.uniform_filter(np.fft.fftshift(np.abs(np.fft.fft2(square * hann)) ** 2), 3)
+    total = float(power.sum())
+    out: dict[str, float] = {}
+    for k, rho in enumerate(SPECTRUM_RINGS, start=1):
+        ring = half_circle(power, rho * side / CANONICAL_PERIOD)
+        mean = float(ring.mean()) + 1e-30
+        harmonics = np.abs(np.fft.rfft(ring)) / (len(ring) * mean)
+        out[f"p_share_{k}"] = float(np.log10(mean * side * side / total + 1e-9))
+        out[f"p_peak_{k}"] = float(np.log10(float(ring.max()) / mean + 1e-9))
+        out |= {f"p_h{h}_{k}": float(harmonics[h // 2]) for h in SPECTRUM_HARMONICS}
+    return {name: float(np.nan_to_num(out[name], nan=0.0, posinf=0.0, neginf=0.0)) for name in SPECTRUM_COLUMNS}
+
+
 def lbp_histogram(field: np.ndarray, neighbours: int, radius: float) -> np.ndarray:
     """Normalised histogram of uniform rotation-invariant LBP codes (``neighbours + 2`` bins)."""
     image = np.asarray(field, dtype=np.float64)
@@ -404,7 +454,7 @@ def structure_features(field: np.ndarray, settings: StructureSettings,
 
 
 def texture_columns(field: np.ndarray, settings: StructureSettings, period_px: float | None = None) -> dict[str, float]:
-    """The ``s_*``, ``w_*`` and ``lbp_*`` columns of one field (``period_px``: as :func:`structure_features`).
+    """The ``s_*``, ``w_*``, ``p_*`` and ``lbp_*`` columns of one field (``period_px``: as :func:`structure_features`).
 
     ``settings.lbp_scale`` says where the ``lbp_*`` histograms are taken:
     ``pixels``, the field as it is (the plain baseline; it moves with the
@@ -414,7 +464,7 @@ def texture_columns(field: np.ndarray, settings: StructureSettings, period_px: f
     if settings.lbp_scale not in ("pixels", "canonical"):
         raise ValueError(f"lbp_scale must be 'pixels' or 'canonical', got {settings.lbp_scale!r}")
     features, diagnostics = structure_features(field, settings, period_px)
-    rings = weave_rings(diagnostics["canonical"])
+    rings = weave_rings(diagnostics["canonical"]) | spectrum_rings(diagnostics["canonical"])
     return features | rings | lbp_baseline(diagnostics["canonical"] if settings.lbp_scale == "canonical" else field)
 
 

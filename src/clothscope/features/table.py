@@ -38,7 +38,8 @@ Columns (:func:`feature_schema`, an explicit pyarrow schema):
   (:func:`clothscope.features.paper.analyse_normal_map`);
 * this project's thread-structure descriptor, ``s_*``
   (:data:`clothscope.features.structure.STRUCTURE_COLUMNS`), its weave rings ``w_*``
-  (:data:`clothscope.features.structure.WEAVE_COLUMNS`), and the plain texture
+  (:data:`clothscope.features.structure.WEAVE_COLUMNS`), its spectrum rings ``p_*``
+  (:data:`clothscope.features.structure.SPECTRUM_COLUMNS`), and the plain texture
   baseline ``lbp_*`` (:data:`clothscope.features.structure.LBP_COLUMNS`), both of the
   source's field (the LBP at its pixels, or at the canonical thread period with
   ``features.structure.lbp_scale: canonical``); ``a_*``, the structure descriptor of the fitted shade
@@ -57,7 +58,7 @@ used for training or scoring.
 its field (:func:`clothscope.features.tiles.tile_fields`), and one per
 view of it turned or zoomed (``features.tiles.turns`` and ``zooms``,
 :func:`clothscope.features.tiles.view_fields`), with
-``image_id``, ``tile`` and the :data:`TILE_FEATURES` (``s_*``, ``w_*`` and ``lbp_*``)
+``image_id``, ``tile`` and the :data:`TILE_FEATURES` (``s_*``, ``w_*``, ``p_*`` and ``lbp_*``)
 of that tile; the classifier trains on them as extra rows of their image
 (:func:`clothscope.classify.rows.with_tiles`).
 """
@@ -83,6 +84,7 @@ from clothscope.features.sources import STATUS_OK, descriptor_period, finite_num
 from clothscope.features.structure import (
     LBP_COLUMNS,
     SHADE_COLUMNS,
+    SPECTRUM_COLUMNS,
     STRUCTURE_COLUMNS,
     TILE_FEATURES,
     WEAVE_COLUMNS,
@@ -175,8 +177,10 @@ def paper_feature_columns(n_peaks: int) -> list[str]:
 
 
 def feature_columns(n_peaks: int, extras: bool) -> list[str]:
-    """Every feature column of a table: the paper's, the structure descriptor's and its weave rings, the LBP baseline's, the extras."""
-    return (paper_feature_columns(n_peaks) + list(STRUCTURE_COLUMNS) + list(WEAVE_COLUMNS) + list(LBP_COLUMNS) + list(SHADE_COLUMNS)
+    """Every feature column of a table: the paper's, the structure descriptor's with its weave and spectrum rings, the LBP
+    baseline's, the shade's, the extras."""
+    return (paper_feature_columns(n_peaks) + list(STRUCTURE_COLUMNS) + list(WEAVE_COLUMNS) + list(SPECTRUM_COLUMNS)
+            + list(LBP_COLUMNS) + list(SHADE_COLUMNS)
             + (list(EXTRA_COLUMNS) if extras else []))
 
 
@@ -210,7 +214,7 @@ def _row(image_id: str, fabric_class: str | None, settings: SpectrumSettings, ex
     for name in paper_feature_columns(settings.n_peaks)[2:]:
         value = features.get(name, 0.0)
         row[name] = int(round(value)) if name == "n_peaks" else finite_number(value, name)
-    for name in (*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *LBP_COLUMNS, *SHADE_COLUMNS):
+    for name in (*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *SPECTRUM_COLUMNS, *LBP_COLUMNS, *SHADE_COLUMNS):
         row[name] = finite_number(structure.get(name, 0.0), name)
     if extras:
         for name in EXTRA_COLUMNS:
