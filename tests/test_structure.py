@@ -424,6 +424,19 @@ def test_joined_table_marks_an_image_unusable_when_any_source_fails():
     assert classifier_candidates("photo_lbp", "fitted", joined.columns) == {"photo_lbp": sets["photo_lbp"]}
 
 
+def test_joined_table_keeps_the_spectrum_rings_for_the_spectrum_sets():
+    from clothscope.classify.feature_sets import joined_table, source_columns
+
+    rng = np.random.default_rng(4)
+    photo = _table("photo", rng, False)
+    photo = pd.concat([photo, pd.DataFrame(rng.normal(size=(len(photo), len(SPECTRUM_COLUMNS))), columns=list(SPECTRUM_COLUMNS))],
+                      axis=1)
+    joined = joined_table({"photo": photo})
+    spectrum = source_columns(joined.columns, "photo", "spectrum")
+    assert spectrum[-len(SPECTRUM_COLUMNS):] == [f"photo.{c}" for c in SPECTRUM_COLUMNS]
+    assert np.allclose(joined[f"photo.{SPECTRUM_COLUMNS[0]}"], photo[SPECTRUM_COLUMNS[0]])
+
+
 def test_diagnosis_of_a_fit_that_equals_the_truth_finds_nothing_wrong(tmp_path):
     import json
 

@@ -33,6 +33,8 @@ from clothscope.features.structure import (
 BRDF_COLUMNS = ("roughness", "specular_norm")
 #: Column groups the ``auto`` feature set chooses from, inside each LOOCV fold (ties go to the first).
 AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf", "texture_shade_brdf")
+#: Column groups a joined table (:func:`joined_table`) keeps of each source: the ``auto`` groups and the spectrum rings.
+JOINED_GROUPS = (*AUTO_GROUPS, "spectrum")
 #: The photo's own column sets beside a fitted or true classifier (``photo_structure`` is named above them):
 #: its radial profile, the paper's features, LBP, and structure with LBP (the photo's BRDF columns are zero, so dropped).
 PHOTO_GROUPS = {"photo_profile": "profile", "photo_paper": "paper", "photo_lbp": "lbp", "photo_texture": "texture"}
@@ -371,7 +373,7 @@ def joined_table(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
     frame = first[[c for c in JOINED_PROVENANCE if c in first.columns]].reset_index(drop=True).copy()
     for source in sources:
         table = tables[source].set_index("image_id").reindex(frame["image_id"])
-        columns = list(dict.fromkeys(c for g in AUTO_GROUPS for c in group_columns(g, table.columns)))
+        columns = list(dict.fromkeys(c for g in JOINED_GROUPS for c in group_columns(g, table.columns)))
         values = table[columns].fillna(0.0).astype(float).set_axis([f"{source}.{c}" for c in columns], axis=1)
         frame = pd.concat([frame, values.reset_index(drop=True)], axis=1)
         status = table["status"].fillna("missing").to_numpy()
