@@ -505,6 +505,16 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                           + " ".join(f"--set results/{folder}/run results/{folder}/field" for folder in folders)
                           + f" --name descriptor_candidates_{name}")
           for kind, name, folders in DESCRIPTOR_SETS),
+        BenchmarkReport("The photo's spectrum rings as a candidate of the classifier of record, four fresh sets",
+                        ("bench/photo_candidates.md",),
+                        f"{py}/photo_candidates.py results/microscope_1152/run results/microscope_1153/run "
+                        "results/weaves_1154/run results/weaves_1155/run (each set: .venv/bin/snakemake --cores 2 "
+                        "field_set --configfile config/config.yaml config/overlays/<set>.yaml && .venv/bin/snakemake "
+                        "--cores 2 --config samples=results/<set>/field/samples.tsv results=results/<set>/run -- "
+                        "results/<set>/run/features/photo/table.parquet)"),
+        BenchmarkReport("The photo's spectrum rings as a candidate of the classifier of record, the design set",
+                        ("bench/photo_candidates_design.md",),
+                        f"{py}/photo_candidates.py results --name photo_candidates_design"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "
