@@ -16,7 +16,7 @@ from clothscope.core.config import schema_defaults
 from clothscope.core.schema import apply_preset, load_schema, validate
 from clothscope.features.structure import StructureSettings
 from clothscope.features.table import features_job
-from clothscope.predict import model_sources, training_settings, unique_ids
+from clothscope.predict import model_sources, scored_with_tiles, training_settings, unique_ids
 from clothscope.prepare.image import PrepareSettings, prepare_image
 
 CLASSES = ("canvas", "satin", "velvet")
@@ -151,3 +151,21 @@ def test_a_model_recorded_before_a_key_takes_its_legacy_value_else_the_schema_de
     settings = training_settings(model)
     assert settings["prepare"]["scale"] == "frame" and settings["fit"]["normals"]["colour_model"] == "one_colour"
     assert settings["features"]["n_peaks"] == schema_defaults()["features"]["n_peaks"]
+
+
+def test_a_model_scored_with_tiles_scores_a_photo_by_its_row_and_its_tiles(photo_model, tmp_path, capsys):
+    model = load_model(photo_model)
+    assert not scored_with_tiles(model)  # a record without the key: the whole row, as before the key existed
+    folder = tmp_path / "tiled"
+    save_model(model, folder, {**model.metadata["metadata"], "test_tiles": "mean"})
+    assert scored_with_tiles(load_model(folder))
+    posteriors = {}
+    for name, model_folder in (("whole", photo_model), ("tiles", folder)):
+        assert main(["predict", str(HELD_OUT), "--model", str(model_folder), "--out", str(tmp_path / name), "--quiet"]) == 0
+        record = json.loads((tmp_path / name / "satin_red" / "physics.json").read_text())
+        posteriors[name] = record["posteriors"]
+        assert math.isclose(sum(record["posteriors"].values()), 1.0)
+    capsys.readouterr()
+    assert len(pd.read_parquet(tmp_path / "tiles" / "satin_red" / "features" / "photo.tiles.parquet")) == 9
+    assert not (tmp_path / "whole" / "satin_red" / "features" / "photo.tiles.parquet").exists()
+    assert posteriors["whole"] != posteriors["tiles"]

@@ -12,7 +12,7 @@ from conftest import SCHEMAS, SYNTHETIC
 import clothscope.classify.loocv as loocv_module
 from clothscope.classify.feature_sets import joined_table, joined_tiles
 from clothscope.classify.loocv import loocv
-from clothscope.classify.model import train_model
+from clothscope.classify.model import predict, train_model
 from clothscope.classify.rows import with_tiles
 from clothscope.core.schema import load_schema, validate
 from clothscope.features.structure import MIN_FIELD, TILE_FEATURES, StructureSettings, window
@@ -187,3 +187,47 @@ def test_tiles_change_what_a_model_learns():
     tiled = train_model(frame, columns, "auto", tiles=tile_frame)
     assert plain.class_counts == tiled.class_counts == {"plain": 4, "twill": 4}  # counts are images, not tiles
     assert not np.allclose(plain.parameters.scalings, tiled.parameters.scalings)
+
+
+def test_predict_with_test_tiles_averages_the_posteriors_of_the_row_and_its_own_tiles():
+    table, tiles = blobs()
+    frame = joined_table({"fitted": table})
+    tile_frame = joined_tiles({"fitted": table}, {"fitted": tiles})
+    columns = ["fitted.s_prof_1", "fitted.s_prof_2"]
+    model = train_model(frame, columns, "auto", tiles=tile_frame)
+    image = frame[frame["image_id"] == "twill_2"]
+    own = tile_frame[tile_frame["image_id"] == "twill_2"]
+    looks = pd.concat([image, own], ignore_index=True).assign(image_id=lambda t: [f"look_{k}" for k in range(len(t))])
+    expected = predict(model, looks)[["p_plain", "p_twill"]].to_numpy().mean(axis=0)
+    scored = predict(model, image, tile_frame)[["p_plain", "p_twill"]].to_numpy()[0]
+    np.testing.assert_allclose(scored, expected, rtol=1e-12)
+    assert len(own) == 4 and not np.allclose(scored, predict(model, image)[["p_plain", "p_twill"]].to_numpy()[0],
+                                             rtol=1e-3, atol=0)
+    # no tile of that image, or no column a tile describes: the whole row alone
+    alone = predict(model, image, tile_frame[tile_frame["image_id"] != "twill_2"])
+    pd.testing.assert_frame_equal(alone, predict(model, image))
+
+
+def test_loocv_with_test_tiles_scores_each_image_by_its_own_looks_only(monkeypatch):
+    table, tiles = blobs(n_per_class=5, seed=3)
+    frame = joined_table({"fitted": table})
+    tile_frame = joined_tiles({"fitted": table}, {"fitted": tiles})
+    columns = ["fitted.s_prof_1", "fitted.s_prof_2"]
+    scored: list[tuple[str, int]] = []
+    real = loocv_module.with_own_tiles
+
+    def spy(X, image_id, tile_rows, used):
+        rows = real(X, image_id, tile_rows, used)
+        scored.append((str(image_id), len(rows)))
+        return rows
+
+    monkeypatch.setattr(loocv_module, "with_own_tiles", spy)
+    whole = loocv(frame, columns, "auto", subspace="none", tiles=tile_frame)
+    assert scored == []  # off by default
+    looked = loocv(frame, columns, "auto", subspace="none", tiles=tile_frame, test_tiles=True)
+    assert scored == [(image, 5) for image in frame["image_id"]]  # the row and its own four tiles
+    assert not np.allclose(whole.predictions[["p_plain", "p_twill"]], looked.predictions[["p_plain", "p_twill"]],
+                           rtol=1e-3, atol=0)
+    # without tile rows the switch changes nothing
+    plain = loocv(frame, columns, "auto", subspace="none")
+    pd.testing.assert_frame_equal(plain.predictions, loocv(frame, columns, "auto", subspace="none", test_tiles=True).predictions)

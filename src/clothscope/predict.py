@@ -18,7 +18,7 @@ from typing import Any
 
 import pandas as pd
 
-from clothscope.classify.feature_sets import joined_table
+from clothscope.classify.feature_sets import joined_table, joined_tiles
 from clothscope.classify.model import QdaModel, predict
 from clothscope.classify.rows import posterior_column
 from clothscope.core.atomic import write_json
@@ -59,6 +59,11 @@ def model_sources(model: QdaModel) -> list[str]:
 
 #: What models recorded before a key existed were processed with, where it differs from the schema default.
 LEGACY = {"prepare": {"scale": "frame"}, "fit": {"normals": {"colour_model": "one_colour"}}, "features": {"fitted_field": "relief", "period_source": "field"}}
+
+
+def scored_with_tiles(model: QdaModel) -> bool:
+    """Whether the model scores an image with its tiles (``classify.test_tiles: mean``; older records: no)."""
+    return model.metadata.get("metadata", {}).get("test_tiles", "none") == "mean"
 
 
 def training_settings(model: QdaModel) -> dict[str, Any]:
@@ -119,20 +124,24 @@ def predict_photo(photo: str, image_id: str, model: QdaModel, physics_table: dic
     if "fitted" in sources or render:
         dirs["fitted"] = _fit(work / "prepared", work / "fit", settings, threads, log, step)
     step("features")
-    tables = {}
+    tables, tile_tables = {}, {}
+    with_tiles = scored_with_tiles(model)
     for source in sources:
         if source not in dirs:
             raise ValueError(f"model reads {source!r} features, which a photo does not have")
         row = features_job(image_id, None, source, photo, str(dirs[source]), settings["features"],
                            str(work / "features" / f"{source}.parquet"), str(work / "features" / f"{source}.png"),
+                           tiles_path=str(work / "features" / f"{source}.tiles.parquet") if with_tiles else None,
                            prepared_dir=str(work / "prepared"))
         tables[source] = pd.DataFrame([row])
+        if with_tiles:
+            tile_tables[source] = pd.read_parquet(work / "features" / f"{source}.tiles.parquet")
     step("classify")
     table = joined_table(tables)
     row = table.iloc[0]
     if row["status"] != STATUS_OK:
         return Prediction(photo, image_id, None, None, None, f"{photo}: {row['reason']}")
-    result = predict(model, table).iloc[0]
+    result = predict(model, table, joined_tiles(tables, tile_tables) if with_tiles else None).iloc[0]
     posteriors = {c: float(result[posterior_column(c)]) for c in model.classes}
     target = work / "physics.json"
     write_json(target, {"image_id": image_id, "photo": str(photo), "predicted_class": str(result["predicted_class"]),

@@ -14,7 +14,7 @@ workflow (``--config samples=... results=<out>/run``). A prediction counts as
 changed when the model trained on all *other* original images (the main run's
 feature tables, with their tiles, ``features.tiles``) predicts another class
 for the transformed photo than for the original. The model is the configured
-classifier (``classify.reg`` and ``classify.subspace``); an ``auto`` set, and
+classifier (``classify.reg``, ``classify.subspace`` and ``classify.test_tiles``); an ``auto`` set, and
 ``record`` (the classifier of record: ``classify.feature_set`` on fitted maps
 with the photo beside them), choose their columns on those other images as the
 ``classify`` rule does.
@@ -93,10 +93,14 @@ def candidates_of(feature_set: str, columns: list[str], settings: dict) -> dict[
 
 def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], transformed: dict[str, pd.DataFrame],
                         images: list[str], transform: str, settings: dict,
-                        tile_tables: dict[str, pd.DataFrame]) -> dict[str, object]:
-    """Train on all other originals (and their tiles), predict each chosen original and its transformed photo; count changes."""
+                        tile_tables: dict[str, pd.DataFrame],
+                        transformed_tiles: dict[str, pd.DataFrame]) -> dict[str, object]:
+    """Train on all other originals (and their tiles), predict each chosen original and its transformed photo (each with
+    its own tiles where ``classify.test_tiles`` is ``mean``); count changes."""
     spec = next(s for s in FEATURE_SETS if s.name == (RECORD_SOURCES if feature_set == "record" else feature_set))
     tiles = joined_tiles({s: originals[s] for s in spec.sources}, tile_tables)
+    scored_tiles = None if settings["test_tiles"] == "none" else pd.concat(
+        [tiles, joined_tiles({s: transformed[s] for s in spec.sources}, transformed_tiles)])
     frame, columns = joined_features(spec, originals, common_images({s: originals[s] for s in spec.sources}))
     if feature_set == "record":
         columns = [c for c in frame.columns if c.split(".", 1)[0] in spec.sources]
@@ -113,7 +117,7 @@ def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], tr
         chosen = choose_columns(others, candidates, reg, subspace, tiles, choice=Choice.from_config(settings["choice"]))[0]
         model = train_model(others, candidates[chosen], reg, subspace, tiles)
         pair = pd.concat([frame[frame["image_id"] == original], t_frame[t_frame["image_id"] == t_id]], ignore_index=True)
-        before, after = predict(model, pair)["predicted_class"]
+        before, after = predict(model, pair, scored_tiles)["predicted_class"]
         changed += int(before != after)
         wrong += int(after != pair["fabric_class"].iloc[0])
     return {"feature_set": feature_set, "transform": transform, "n": len(ok), "changed": changed,
@@ -137,9 +141,9 @@ def main() -> int:
     seconds = snakemake([*overlay, "--config", f"samples={out / 'samples.tsv'}", f"results={run}", "--quiet", *reuse, "all", "--",
                          *(str(run / "features" / s / "table.parquet") for s in ("fitted", "photo"))])
     originals, tiles = run_tables(ROOT / "results")
-    transformed = run_tables(run)[0]
+    transformed, transformed_tiles = run_tables(run)
     images = list(sheet["image_id"])
-    table = pd.DataFrame([changed_predictions(f, originals, transformed, images, t, settings, tiles)
+    table = pd.DataFrame([changed_predictions(f, originals, transformed, images, t, settings, tiles, transformed_tiles)
                           for f in SETS for t in PHOTO_TRANSFORMS])
     lines = ["# Invariance of predictions to the photo's rotation, zoom and colour (refitted)", "",
              f"{len(images)} images x {len(PHOTO_TRANSFORMS)} transformations, prepared, fitted and described by the "

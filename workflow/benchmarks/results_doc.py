@@ -515,6 +515,15 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The photo's spectrum rings as a candidate of the classifier of record, the design set",
                         ("bench/photo_candidates_design.md",),
                         f"{py}/photo_candidates.py results --name photo_candidates_design"),
+        BenchmarkReport("Each held-out image scored with its tiles, three fresh sets",
+                        ("bench/held_out_tiles.md",),
+                        f"{py}/held_out_tiles.py results/microscope_1156/run results/weaves_1157/run "
+                        "results/holdout_1158/run (each set rendered and given photo features by the commands in "
+                        "config/overlays/<set>.yaml)"),
+        BenchmarkReport("Each held-out image scored with its tiles, the design set and the screening sets",
+                        ("bench/held_out_tiles_design.md",),
+                        f"{py}/held_out_tiles.py results results/microscope_1152/run results/microscope_1153/run "
+                        "results/weaves_1154/run results/weaves_1155/run --name held_out_tiles_design"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "

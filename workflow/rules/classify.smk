@@ -36,6 +36,7 @@ rule classify:
         physics=config["classify"]["physics"],
         feature_set=config["classify"]["feature_set"],
         choice=config["classify"]["choice"],
+        test_tiles=config["classify"]["test_tiles"],
         settings={key: config[key] for key in ("prepare", "fit", "features", "variant")},
     script:
         "../scripts/classify.py"
@@ -63,6 +64,7 @@ rule feature_sets:
     params:
         reg=config["classify"]["reg"],
         subspace=config["classify"]["subspace"],
+        test_tiles=config["classify"]["test_tiles"],
         fitted_set=f"auto_{config['features']['normal_source']}",
     script:
         "../scripts/feature_sets.py"

@@ -13,4 +13,5 @@ with job_log(snakemake.log[0], "feature_sets") as log:
         snakemake.output.csv,
         log,
         tile_paths={source[: -len("_tiles")]: path for source, path in inputs.items() if source.endswith("_tiles")},
+        test_tiles=snakemake.params.test_tiles == "mean",
     )

@@ -165,15 +165,17 @@ def _unscored_row(feature_set: FeatureSet, reason: str) -> dict[str, object]:
 
 def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], images: list[str],
                       reg: float | str, subspace: str,
-                      tile_tables: dict[str, pd.DataFrame] | None = None) -> tuple[dict[str, object], pd.Series | None]:
+                      tile_tables: dict[str, pd.DataFrame] | None = None,
+                      test_tiles: bool = False) -> tuple[dict[str, object], pd.Series | None]:
     """LOOCV of one feature set on ``images``: a report row (``status`` says why when not scored) and,
-    when scored, which images it classified correctly (boolean, by image id)."""
+    when scored, which images it classified correctly (boolean, by image id). ``test_tiles``: each held-out
+    image is scored with its tiles (:func:`clothscope.classify.loocv.loocv`)."""
     try:
         frame, columns = joined_features(feature_set, tables, images)
         auto = [source for source, group in feature_set.parts if group == "auto"]
         tiles = joined_tiles({source: tables[source] for source in feature_set.sources}, tile_tables)
         result = loocv(frame, columns, reg, select_from=auto_candidates(columns, auto[0]) if auto else None,
-                       subspace=subspace, tiles=tiles)
+                       subspace=subspace, tiles=tiles, test_tiles=test_tiles)
     except (KeyError, ValueError) as err:
         return _unscored_row(feature_set, str(err)), None
     chosen = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
@@ -228,9 +230,10 @@ def paired_with_best_photo(report: pd.DataFrame, hits: dict[str, pd.Series]) -> 
 
 def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subspace: str,
                          tile_tables: dict[str, pd.DataFrame] | None = None,
-                         feature_sets: tuple[FeatureSet, ...] = FEATURE_SETS) -> pd.DataFrame:
+                         feature_sets: tuple[FeatureSet, ...] = FEATURE_SETS, test_tiles: bool = False) -> pd.DataFrame:
     """Every one of ``feature_sets`` whose sources are all in ``tables``, scored on the images usable in all of them
-    (each fold also trains on the tiles of its training images, :func:`joined_tiles`).
+    (each fold also trains on the tiles of its training images, :func:`joined_tiles`; with ``test_tiles`` the
+    held-out image is scored with its own tiles too).
 
     ``truth`` is left out of the common image set when some of those images
     have no ground truth (a photo of the user's own); its sets then say so.
@@ -245,7 +248,7 @@ def compare_feature_sets(tables: dict[str, pd.DataFrame], reg: float | str, subs
         if "truth" in feature_set.sources and not set(images) <= set(map(str, usable(tables["truth"]).index)):
             rows.append(_unscored_row(feature_set, "some images have no ground truth"))
             continue
-        row, right = score_feature_set(feature_set, tables, images, reg, subspace, tile_tables)
+        row, right = score_feature_set(feature_set, tables, images, reg, subspace, tile_tables, test_tiles)
         rows.append(row)
         if right is not None:
             hits[feature_set.name] = right
@@ -346,11 +349,12 @@ def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str], su
 
 def feature_sets_job(table_paths: dict[str, str], reg: float | str, subspace: str, fitted_set: str,
                      md_path: str | os.PathLike[str], csv_path: str | os.PathLike[str], log: object = None,
-                     tile_paths: dict[str, str] | None = None) -> pd.DataFrame:
-    """The ``feature_sets`` rule: read each source's feature table (and tile table), compare, write Markdown and CSV."""
+                     tile_paths: dict[str, str] | None = None, test_tiles: bool = False) -> pd.DataFrame:
+    """The ``feature_sets`` rule: read each source's feature table (and tile table), compare, write Markdown and CSV
+    (``test_tiles``: :func:`compare_feature_sets`)."""
     tables = {source: pd.read_parquet(path) for source, path in table_paths.items()}
     tile_tables = {source: pd.read_parquet(path) for source, path in (tile_paths or {}).items()}
-    report = compare_feature_sets(tables, reg, subspace, tile_tables)
+    report = compare_feature_sets(tables, reg, subspace, tile_tables, test_tiles=test_tiles)
     line = inverse_rendering_gain(report, fitted_set)
     write_text(Path(csv_path), report.to_csv(index=False, lineterminator="\n", float_format="%.6f"))
     relief = relief_line(report, fitted_set)

@@ -76,7 +76,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
                  photo_table_path: str | os.PathLike[str] | None = None, subspace: str,
                  settings: dict[str, Any] | None = None,
                  tile_paths: dict[str, str | os.PathLike[str]] | None = None,
-                 choice: Choice | None = None) -> dict[str, Any]:
+                 choice: Choice | None = None, test_tiles: bool = False) -> dict[str, Any]:
     """Run the classifier stage for one normal source.
 
     Parameters
@@ -112,6 +112,9 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         (:func:`clothscope.classify.feature_sets.joined_tiles`); without them, whole images only.
     choice
         How ``auto`` picks its set (:class:`clothscope.classify.loocv.Choice`; None: the best inner accuracy).
+    test_tiles
+        Score each image by the mean posterior of its whole row and its tiles (``classify.test_tiles: mean``),
+        in LOOCV and as a query; recorded in the model, so ``clothscope predict`` scores a photo alike.
     """
     tables = {source: read_table(table_path)}
     if photo_table_path and source != "photo":
@@ -124,7 +127,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     provenance = _provenance(table)
     problems = []
     try:
-        result = loocv(ok, [], reg, select_from=candidates, subspace=subspace, tiles=tiles, choice=choice)
+        result = loocv(ok, [], reg, select_from=candidates, subspace=subspace, tiles=tiles, choice=choice,
+                       test_tiles=test_tiles)
     except ValueError as err:  # too few labelled classes or images: no scores, the run goes on
         result, problems = None, [f"LOOCV not run: {str(err).splitlines()[0]}"]
     try:
@@ -133,7 +137,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     except ValueError as err:
         model = None
         problems.append(f"no model trained: {str(err).splitlines()[0]}")
-    query_predictions = predict(model, queries) if model is not None else pd.DataFrame(columns=["image_id", "predicted_class"])
+    scored_tiles = tiles if test_tiles else None
+    query_predictions = predict(model, queries, scored_tiles) if model is not None else pd.DataFrame(columns=["image_id", "predicted_class"])
     if result is not None:
         title = f"QDA, leave-one-out, {source} maps, {feature_set} feature set ({result.correct}/{result.n} correct)"
         write_reports(result, query_predictions, reports_dir, title)
@@ -153,6 +158,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     if model is not None:
         save_model(model, model_dir, metadata={"normal_source": source, "feature_set": feature_set, "chosen_set": chosen,
                                                 "choice": {"prefer": choice.prefer, "alpha": choice.alpha} if choice else None,
+                                                "test_tiles": "mean" if test_tiles else "none",
                                                 "feature_table": str(table_path), **provenance,
                                                 "n_labelled": int(len(labelled)), "settings": dict(settings or {}),
                                                 "physics_table": str(physics_path),
@@ -164,7 +170,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     query_ids = set(query_predictions["image_id"].astype(str))
     # labelled images a too-small class kept out of LOOCV: posteriors from the all-labelled model
     rest = labelled[~labelled["image_id"].astype(str).isin(loo.index)]
-    rest_predictions = predict(model, rest) if model is not None else pd.DataFrame(columns=["image_id", "predicted_class"])
+    rest_predictions = predict(model, rest, scored_tiles) if model is not None else pd.DataFrame(columns=["image_id", "predicted_class"])
     model_rows = pd.concat([query_predictions, rest_predictions], ignore_index=True).set_index("image_id")
 
     summary, records = [], []

@@ -32,6 +32,7 @@ from clothscope.classify.rows import (
     labelled_data,
     posterior_column,
     split_labelled,
+    with_own_tiles,
     with_tiles,
 )
 
@@ -242,7 +243,7 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
           select_from: dict[str, list[str]] | None = None, subspace: str = "none",
           tiles: pd.DataFrame | None = None, score: InnerScore | None = None,
-          choice: Choice | None = None) -> LoocvResult:
+          choice: Choice | None = None, test_tiles: bool = False) -> LoocvResult:
     """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
 
     Each labelled image is classified by a model fitted (scaler included) on
@@ -271,6 +272,9 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         tiles of its training images, never on those of the image it scores, which is scored by its own row.
     score, choice
         The inner score :func:`choose_columns` chooses by, and how (with ``select_from``).
+    test_tiles
+        Score the held-out image by the mean posterior of its whole row and its own tiles
+        (``classify.test_tiles: mean``) instead of its whole row alone; the inner choice is unchanged.
 
     Returns
     -------
@@ -304,12 +308,14 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
             model = train_model(rows, select_from[name], reg, subspace, tiles)
             if model.classes != classes:
                 raise ValueError(f"fold {ids[i]}: fitted classes {model.classes} differ from {classes}")
-            proba[i] = predict(model, labelled.iloc[[i]])[[posterior_column(c) for c in classes]].to_numpy(float)[0]
+            scored = predict(model, labelled.iloc[[i]], tiles if test_tiles else None)
+            proba[i] = scored[[posterior_column(c) for c in classes]].to_numpy(float)[0]
             continue
         model = fit_qda(reg, *with_tiles(X[train], y[train], np.asarray(ids)[train], tiles, used), notes, subspace)
         if list(model.classes_) != classes:
             raise ValueError(f"fold {ids[i]}: fitted classes {list(model.classes_)} differ from {classes}")
-        proba[i] = posteriors(model, X[i : i + 1], [ids[i]])[0]
+        rows = with_own_tiles(X[i : i + 1], ids[i], tiles, used) if test_tiles else X[i : i + 1]
+        proba[i] = posteriors(model, rows, [ids[i]] * len(rows)).mean(axis=0)
     predicted = np.array([classes[k] for k in proba.argmax(axis=1)], dtype=object)
 
     predictions = pd.DataFrame({"image_id": ids, "true_class": y, "predicted_class": predicted})

@@ -27,7 +27,14 @@ from scipy.special import logsumexp
 
 from clothscope import __version__
 from clothscope.classify.qda import VAR_FLOOR, check_posteriors, check_reg, check_subspace, fit_qda
-from clothscope.classify.rows import MIN_TRAIN_PER_CLASS, feature_matrix, labelled_data, posterior_column, with_tiles
+from clothscope.classify.rows import (
+    MIN_TRAIN_PER_CLASS,
+    feature_matrix,
+    labelled_data,
+    posterior_column,
+    with_own_tiles,
+    with_tiles,
+)
 from clothscope.core.atomic import write_json, write_with
 
 #: Marker of the record of a saved model; a record with another is refused.
@@ -262,7 +269,12 @@ def train_model(table: pd.DataFrame, feature_columns: list[str], reg: float | st
     )
 
 
-def predict(model: QdaModel, table_rows: pd.DataFrame) -> pd.DataFrame:
+def _posteriors(model: QdaModel, X: np.ndarray) -> np.ndarray:
+    with np.errstate(all="ignore"):
+        return np.exp(model.parameters.log_posteriors(X))
+
+
+def predict(model: QdaModel, table_rows: pd.DataFrame, tiles: pd.DataFrame | None = None) -> pd.DataFrame:
     """Classify rows (typically the unlabelled queries) with a trained model.
 
     Parameters
@@ -271,6 +283,9 @@ def predict(model: QdaModel, table_rows: pd.DataFrame) -> pd.DataFrame:
         From :func:`train_model` or :func:`clothscope.classify.model.load_model`.
     table_rows
         Rows with ``image_id`` and the model's feature columns.
+    tiles
+        Tile rows (:func:`clothscope.classify.feature_sets.joined_tiles`), or None: each row is then
+        classified by the mean posterior of the row and its image's tiles (``classify.test_tiles: mean``).
 
     Returns
     -------
@@ -286,8 +301,11 @@ def predict(model: QdaModel, table_rows: pd.DataFrame) -> pd.DataFrame:
         return pd.DataFrame(columns=out_columns)
     ids = table_rows["image_id"].astype(str).tolist()
     X = feature_matrix(table_rows, model.feature_columns, "rows to classify")
-    with np.errstate(all="ignore"):
-        proba = np.exp(model.parameters.log_posteriors(X))
+    proba = _posteriors(model, X)
+    for k, image_id in enumerate(ids) if tiles is not None else ():  # the mean over the row and its tiles
+        looks = with_own_tiles(X[k : k + 1], image_id, tiles, model.feature_columns)[1:]
+        if len(looks):
+            proba[k] = (proba[k] + _posteriors(model, looks).sum(axis=0)) / (1 + len(looks))
     check_posteriors(proba, ids)
     result = pd.DataFrame({"image_id": ids, "predicted_class": [model.classes[k] for k in proba.argmax(axis=1)]})
     for k, c in enumerate(model.classes):

@@ -124,6 +124,23 @@ def labelled_data(table: pd.DataFrame, feature_columns: list[str], min_per_class
     return labelled, excluded, notes, used, dropped, X, y
 
 
+def tiles_describe(tiles: pd.DataFrame | None, columns: list[str]) -> bool:
+    """Whether ``tiles`` has rows and ``columns`` hold a column a tile describes
+    (:data:`~clothscope.features.structure.TILE_FEATURES`, plain or as ``<source>.<column>``)."""
+    return tiles is not None and not tiles.empty and any(c.rsplit(".", 1)[-1] in TILE_FEATURES for c in columns)
+
+
+def with_own_tiles(X: np.ndarray, image_id: str, tiles: pd.DataFrame | None, columns: list[str]) -> np.ndarray:
+    """One image's row ``X`` (``1 x d``) with the rows of its own tiles below it (``classify.test_tiles``).
+
+    Only when :func:`tiles_describe` and the image has tiles; otherwise ``X`` unchanged.
+    """
+    if not tiles_describe(tiles, columns):
+        return X
+    rows = tiles[tiles["image_id"].astype(str) == str(image_id)]
+    return X if rows.empty else np.vstack([X, feature_matrix(rows, columns, f"tile rows of {image_id}")])
+
+
 def with_tiles(X: np.ndarray, y: np.ndarray, ids: list[str] | np.ndarray, tiles: pd.DataFrame | None,
                columns: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """``X`` and ``y`` with the tile rows of the images ``ids`` appended, each labelled as its image.
@@ -134,7 +151,7 @@ def with_tiles(X: np.ndarray, y: np.ndarray, ids: list[str] | np.ndarray, tiles:
     tile describes (:data:`~clothscope.features.structure.TILE_FEATURES`, plain or as ``<source>.<column>``):
     ``X`` and ``y`` unchanged, since copies of an image's own values would only make its class look tighter.
     """
-    if tiles is None or tiles.empty or not any(c.rsplit(".", 1)[-1] in TILE_FEATURES for c in columns):
+    if not tiles_describe(tiles, columns):
         return X, y
     label = {str(i): c for i, c in zip(ids, y)}
     rows = tiles[tiles["image_id"].astype(str).isin(label)]
