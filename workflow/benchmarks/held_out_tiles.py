@@ -21,10 +21,7 @@ from pathlib import Path
 import pandas as pd
 from class_subsets import classify_config
 from harness import record_inputs, record_loocv, run_tables, runs_report, shown
-from photo_candidates import photo_sets
-
-from clothscope.classify.feature_sets import joined_table, joined_tiles
-from clothscope.features.sources import STATUS_OK
+from photo_candidates import photo_inputs
 
 #: how the held-out image is scored, in the order reported
 MODES = ("whole row", "mean with tiles")
@@ -32,10 +29,8 @@ MODES = ("whole row", "mean with tiles")
 
 def scored_lists(run: Path, settings: dict) -> list[tuple[str, pd.DataFrame, pd.DataFrame | None, dict[str, list[str]]]]:
     """``(label, rows, tiles, candidates)`` of each LOOCV scored on one run."""
-    tables, tile_tables = run_tables(run, ("photo",))
-    joined = joined_table(tables)
-    ok, tiles = joined[joined["status"] == STATUS_OK], joined_tiles(tables, tile_tables)
-    every = {name: columns for name, columns in photo_sets(joined.columns).items() if name != "photo_spectrum"}
+    ok, tiles, sets = photo_inputs(run)
+    every = {name: columns for name, columns in sets.items() if name != "photo_spectrum"}
     lists = [("photo's sets", ok, tiles, every), ("photo_structure", ok, tiles, {"photo_structure": every["photo_structure"]})]
     if (run / "features" / "fitted" / "table.parquet").is_file():
         lists.append(("classifier of record", *record_inputs(*run_tables(run), settings["feature_set"])))

@@ -99,7 +99,7 @@ def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], tr
     its own tiles where ``classify.test_tiles`` is ``mean``); count changes."""
     spec = next(s for s in FEATURE_SETS if s.name == (RECORD_SOURCES if feature_set == "record" else feature_set))
     tiles = joined_tiles({s: originals[s] for s in spec.sources}, tile_tables)
-    scored_tiles = None if settings["test_tiles"] == "none" else pd.concat(
+    scored_tiles = None if settings["test_tiles"] != "mean" else pd.concat(
         [tiles, joined_tiles({s: transformed[s] for s in spec.sources}, transformed_tiles)])
     frame, columns = joined_features(spec, originals, common_images({s: originals[s] for s in spec.sources}))
     if feature_set == "record":

@@ -41,12 +41,16 @@ def photo_sets(columns: pd.Index) -> dict[str, list[str]]:
     return sets | {"photo_spectrum": source_columns(columns, "photo", "spectrum")}
 
 
-def run_rows(run: Path) -> list[dict]:
-    """Images right in one run under each candidate list, and by each single set."""
+def photo_inputs(run: Path) -> tuple[pd.DataFrame, pd.DataFrame | None, dict[str, list[str]]]:
+    """One run's usable photo rows, their tile rows and :func:`photo_sets` (from the photo tables alone)."""
     tables, tile_tables = run_tables(run, ("photo",))
     joined = joined_table(tables)
-    ok, tiles = joined[joined["status"] == STATUS_OK], joined_tiles(tables, tile_tables)
-    every = photo_sets(joined.columns)
+    return joined[joined["status"] == STATUS_OK], joined_tiles(tables, tile_tables), photo_sets(joined.columns)
+
+
+def run_rows(run: Path) -> list[dict]:
+    """Images right in one run under each candidate list, and by each single set."""
+    ok, tiles, every = photo_inputs(run)
     lists = {LISTS[0]: {k: v for k, v in every.items() if k != "photo_spectrum"}, LISTS[1]: every}
     lists |= {name: {name: every[name]} for name in ALONE}
     settings = classify_config()
