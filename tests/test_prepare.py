@@ -225,6 +225,50 @@ def test_stripes_of_two_shades_of_one_hue_do_not_read_as_the_thread_period(step)
     assert native_period(rgb, 1024, LATTICE, "shading", "strongest") == pytest.approx(192.0, rel=0.05)  # the repeat
 
 
+def twill_photo(side: int, period: float, angle_deg: float = 20.0, seed: int = 0) -> np.ndarray:
+    """Linear RGB of a 2/2 twill: yarns ``period`` px apart, each crossing showing the warp or the weft on top, and the
+    floats' diagonal rib (2 sqrt(2) periods apart) shaded on top."""
+    from clothscope.core.imageio import srgb_to_linear
+
+    rng = np.random.default_rng(seed)
+    rows, cols = np.mgrid[0:side, 0:side].astype(np.float64)
+    a = np.deg2rad(angle_deg)
+    u, v = (cols * np.cos(a) + rows * np.sin(a)) / period, (-cols * np.sin(a) + rows * np.cos(a)) / period
+    warp_on_top = ((np.floor(u) - np.floor(v)) % 4) < 2
+    relief = np.sqrt(np.sin(np.pi * np.where(warp_on_top, u % 1.0, v % 1.0))) + 0.3 * np.cos(2 * np.pi * (u - v) / 4)
+    grey = 0.3 + 0.2 * relief + 0.02 * rng.standard_normal(relief.shape)
+    return srgb_to_linear(np.repeat(np.clip(grey, 0, 1)[..., None], 3, axis=-1))
+
+
+@pytest.mark.parametrize("angle_deg", [20.0, -35.0])
+def test_the_yarn_axes_read_the_threads_where_a_twill_rib_outshines_them(angle_deg):
+    from clothscope.features.structure import analysis_field
+    from clothscope.prepare.image import native_period, yarn_axes
+
+    rgb = twill_photo(1024, 12.0, angle_deg)
+    assert native_period(rgb, 1024, LATTICE, "shading", "weighted") == pytest.approx(12.0 * 2 * np.sqrt(2), rel=0.05)
+    assert native_period(rgb, 1024, LATTICE, "shading", "axes") == pytest.approx(12.0, rel=0.05)
+    axes = yarn_axes(analysis_field(rgb[..., 1], 0.0))
+    assert axes.strength > 0.1
+    assert abs((np.rad2deg(axes.angle) - angle_deg + 45) % 90 - 45) < 5  # an axis along the yarns, modulo 90 degrees
+
+
+def test_without_clear_yarn_axes_the_axes_pick_is_the_weighted_one():
+    from clothscope.features.structure import analysis_field
+    from clothscope.prepare.image import YarnAxes, native_lattice, period_peak_index, yarn_axes
+
+    noise = np.random.default_rng(1).standard_normal((256, 256))
+    assert yarn_axes(analysis_field(noise, 0.0)).strength < 0.05
+    assert yarn_axes(np.zeros((64, 64))) == YarnAxes(0.0, 0.0)
+    native = native_lattice(twill_photo(1024, 12.0), 1024, LATTICE)
+    peaks = native.found.peaks
+    weak = YarnAxes(native.axes.angle, 0.05)
+    assert period_peak_index(native.spectrum, peaks, "axes", weak) == period_peak_index(native.spectrum, peaks, "weighted")
+    assert period_peak_index(native.spectrum, peaks, "axes", native.axes) != period_peak_index(native.spectrum, peaks, "weighted")
+    with pytest.raises(ValueError, match="needs the yarn axes"):
+        period_peak_index(native.spectrum, peaks, "axes")
+
+
 def test_an_unknown_period_peak_is_refused():
     from clothscope.prepare.image import native_period
 
@@ -250,6 +294,19 @@ def test_thread_scale_crops_fine_threads_into_the_band_and_records_it(tmp_path):
     # the whole frame would have put the threads at 5 px; "frame" keeps it and says nothing about threads
     frame = prepare_image("fine", tmp_path / "fine.png", tmp_path / "frame", config_settings("prepare", working_resolution=256, scale="frame"))
     assert frame["scale"] == {"method": "frame", "crop_px": 1024, "native_px_per_working_px": 4.0}
+
+
+def test_the_axes_pick_crops_a_twill_by_its_threads_not_its_rib(tmp_path):
+    from clothscope.core.imageio import linear_to_srgb
+
+    Image.fromarray(np.clip(linear_to_srgb(twill_photo(1024, 12.0)) * 255 + 0.5, 0, 255).astype(np.uint8)).save(
+        tmp_path / "twill.png")
+    scales = {peak: prepare_image("twill", tmp_path / "twill.png", tmp_path / peak, config_settings(
+        "prepare", working_resolution=256, scale="threads", period_peak=peak), LATTICE)["scale"] for peak in ("weighted", "axes")}
+    assert scales["weighted"]["native_period_px"] == pytest.approx(12.0 * 2 * np.sqrt(2), rel=0.05)  # the rib
+    assert scales["weighted"]["crop_px"] == 1024  # the rib lands in the band: the threads would be 3 px wide
+    assert scales["axes"]["native_period_px"] == pytest.approx(12.0, rel=0.05)
+    assert 8.0 <= scales["axes"]["working_period_px"] <= 16.0 and scales["axes"]["crop_px"] < 1024
 
 
 def test_thread_scale_keeps_the_frame_when_threads_are_coarse_or_absent(tmp_path):

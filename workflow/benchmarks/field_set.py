@@ -43,9 +43,10 @@ TOO_LONG = 1.8
 #: a period read this many times too short is a harmonic: the crop then leaves few, large threads
 TOO_SHORT = 0.6
 #: (prepare.period_field, prepare.period_peak) pairs the period is measured with here
-MEASURED = (("luminance", "weighted"), ("shading", "strongest"), ("shading", "weighted"))
+MEASURED = (("luminance", "weighted"), ("shading", "strongest"), ("shading", "weighted"), ("shading", "axes"))
 FIELDS = {"luminance": "luminance", "shading": "shading with yarn colours divided out"}
-PEAKS = {"strongest": "strongest peak", "weighted": "peak with the most power times frequency"}
+PEAKS = {"strongest": "strongest peak", "weighted": "peak with the most power times frequency",
+         "axes": "peak with the most power times frequency along the yarn axes"}
 
 #: decode_image limits: the config schema's prepare defaults
 DECODE = tuple(schema_defaults()["prepare"][k] for k in ("min_input_px", "max_megapixels", "clip_threshold"))

@@ -70,7 +70,8 @@ def image_row(path: Path, lattice: StructureSettings, beta: float) -> dict | Non
         return None
     seen = seen_scale(truth)
     periods = [p * seen for p in (truth["thread_period_px"], truth["course_period_px"]) if p]
-    side, s, found = native_lattice(decode_image(path, *DECODE).rgb, 1024, lattice)
+    native = native_lattice(decode_image(path, *DECODE).rgb, 1024, lattice)
+    side, s, found = native.side, native.spectrum, native.found
     row = {"field": str(path.parent.parent.relative_to(ROOT)), "image_id": path.stem, "fabric_class": truth["fabric_class"],
            "capture": truth["draw"]["capture"], "true_period_px": periods[0], "default_ratio": None, "stepped_ratio": None}
     if found.found:

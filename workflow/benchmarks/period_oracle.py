@@ -59,7 +59,8 @@ def periods_of(photo: Path, scale: dict, lattice: StructureSettings) -> dict[str
     true = true_period(photo, scale)
     stepped = prepared
     if prepared:
-        side, s, found = native_lattice(decode_image(photo, *DECODE).rgb, 1024, lattice)
+        native = native_lattice(decode_image(photo, *DECODE).rgb, 1024, lattice)
+        s, found = native.spectrum, native.found
         if found.found:
             stepped = prepared * period_peak_radius(s, found.peaks, "weighted") / threads_below(s, found.peaks, BETA)
     return {"own": None, "prepare": prepared, "stepped": stepped, "truth": true}

@@ -175,6 +175,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("microscope-like weaves 1149", "microscope_1149", "field"),
         rendered_run("microscope-like weaves 1150", "microscope_1150", "field"),
         rendered_run("held-out 1151", "holdout_1151", "holdout"),
+        rendered_run("held-out 1158", "holdout_1158", "holdout"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -524,6 +525,13 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/held_out_tiles_design.md",),
                         f"{py}/held_out_tiles.py results results/microscope_1152/run results/microscope_1153/run "
                         "results/weaves_1154/run results/weaves_1155/run --name held_out_tiles_design"),
+        BenchmarkReport("The yarn axes pick the thread period's peak, confirmation",
+                        ("bench/period_axes.md",),
+                        f"{py}/period_axes.py --set results/microscope_1156/run results/microscope_1156/run_axes "
+                        "results/microscope_1156/field --set results/weaves_1157/run results/weaves_1157/run_axes "
+                        "results/weaves_1157/field --set results/holdout_1158/run results/holdout_1158/run_axes "
+                        "results/holdout_1158/holdout (RUN prepared with config/overlays/period_weighted.yaml, the "
+                        "default until then; AXES_RUN with the default)"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "

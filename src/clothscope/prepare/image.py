@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 from PIL import Image
+from scipy import ndimage
 
 from clothscope.core.atomic import atomic_dir, write_json
 from clothscope.core.imageio import ImageRejected, decode_image, linear_to_srgb, luminance, write_exr, write_png
@@ -42,9 +43,14 @@ STATUS_FILE = "status.json"
 IMAGE_FILE = "image.exr"
 CLIPPED_FILE = "clipped.png"
 PREVIEW_FILE = "preview.png"
-#: which lattice peak gives the native period (``prepare.period_peak``): the most powerful, or the one with the most
-#: power times frequency (a colour repeat many threads long then loses to the threads it is woven from)
-PERIOD_PEAKS = ("weighted", "strongest")
+#: which lattice peak gives the native period (``prepare.period_peak``): the most powerful, the one with the most
+#: power times frequency (a colour repeat many threads long then loses to the threads it is woven from), or that
+#: one among the peaks along the yarn axes when the photo shows them (a weave repeat then loses too)
+PERIOD_PEAKS = ("weighted", "strongest", "axes")
+#: the yarn axes count when the 4-fold moment of the gradient orientations is at least this (:func:`yarn_axes`)
+AXES_MIN_STRENGTH = 0.1
+#: a lattice peak lies along a yarn axis when its direction is within this many degrees of one
+AXES_TOLERANCE_DEG = 12.0
 
 
 @dataclass(frozen=True)
@@ -86,27 +92,68 @@ def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings, fiel
     the period is that of the peak :func:`period_peak_radius` picks (``peak``).
     """
     check_period_peak(peak)
-    side, s, found = native_lattice(rgb, window, lattice, field)
-    if not found.found:
+    native = native_lattice(rgb, window, lattice, field)
+    if not native.found.found:
         return None
-    radius = period_peak_radius(s, found.peaks, peak)
-    return float(side / radius) if radius > 0 else None
+    radius = period_peak_radius(native.spectrum, native.found.peaks, peak, native.axes)
+    return float(native.side / radius) if radius > 0 else None
 
 
-def native_lattice(rgb: np.ndarray, window: int, lattice: StructureSettings, field: str = "shading") -> tuple[int, Spectrum, Lattice]:
-    """Side (pixels), spectrum and lattice peaks of the photo's centred ``window`` square that :func:`native_period` reads."""
+@dataclass(frozen=True)
+class YarnAxes:
+    """The two yarn directions of a field, as one angle modulo 90 degrees, and how clearly the field shows them."""
+
+    angle: float  # radians, the direction of one axis (the other is 90 degrees on)
+    strength: float  # in [0, 1]: 0 for gradients of every direction alike, 1 for gradients along the axes only
+
+
+@dataclass(frozen=True)
+class NativeLattice:
+    """What :func:`native_period` reads of a photo: the square's side (pixels), its spectrum, lattice peaks and yarn axes."""
+
+    side: int
+    spectrum: Spectrum
+    found: Lattice
+    axes: YarnAxes
+
+
+def yarn_axes(field: np.ndarray) -> YarnAxes:
+    """The yarn axes of an analysis field: the 4-fold moment of its gradient orientations.
+
+    Gradients (after a 1 px Gaussian) are weighted by their squared length; a woven
+    lattice's yarn edges put most of that weight along the two yarn directions, a
+    weave repeat's diagonal ribs and round, ring-lit crossings little.
+    """
+    gy, gx = np.gradient(ndimage.gaussian_filter(np.asarray(field, dtype=np.float64), 1.0))
+    weight = gx**2 + gy**2
+    total = float(weight.sum())
+    if not total > 0:
+        return YarnAxes(0.0, 0.0)
+    moment = complex((weight * np.exp(4j * np.arctan2(gy, gx))).sum()) / total
+    return YarnAxes(float(np.angle(moment) / 4), float(abs(moment)))
+
+
+def native_lattice(rgb: np.ndarray, window: int, lattice: StructureSettings, field: str = "shading") -> NativeLattice:
+    """The photo's centred ``window`` square as :func:`native_period` reads it (:class:`NativeLattice`)."""
     square = centred(rgb, window)[..., :3]
-    values = shading(square) if field == "shading" else luminance(square)
-    s = spectrum(analysis_field(values, 0.0))
-    return square.shape[0], s, find_lattice(s, lattice)
+    values = analysis_field(shading(square) if field == "shading" else luminance(square), 0.0)
+    s = spectrum(values)
+    return NativeLattice(square.shape[0], s, find_lattice(s, lattice), yarn_axes(values))
 
 
-def period_peak_radius(s: Spectrum, peaks: np.ndarray, peak: str) -> float:
+def period_peak_radius(s: Spectrum, peaks: np.ndarray, peak: str, axes: YarnAxes | None = None) -> float:
     """Radius (bins) of the lattice peak that gives the thread period (:func:`period_peak_index`)."""
-    return refined_radius(s, int(peaks[period_peak_index(s, peaks, peak)]))
+    return refined_radius(s, int(peaks[period_peak_index(s, peaks, peak, axes)]))
 
 
-def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str) -> int:
+def along_axes(s: Spectrum, peaks: np.ndarray, axes: YarnAxes) -> np.ndarray:
+    """Mask of the ``peaks`` whose direction lies within :data:`AXES_TOLERANCE_DEG` of a yarn axis."""
+    direction = np.arctan2(s.dy.flat[peaks], s.dx.flat[peaks])
+    off = np.abs((direction - axes.angle + np.pi / 4) % (np.pi / 2) - np.pi / 4)
+    return off <= np.deg2rad(AXES_TOLERANCE_DEG)
+
+
+def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str, axes: YarnAxes | None = None) -> int:
     """Index into ``peaks`` of the lattice peak that gives the thread period.
 
     ``strongest``: the most powerful peak. ``weighted``: the peak with the most
@@ -114,18 +161,29 @@ def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str) -> int:
     one hue in two shades, which the shading cannot divide out) can outshine the
     threads, but it sits at a fraction of their frequency; a harmonic of the
     threads sits at a multiple and would need over half their power to win.
+    ``axes``: as ``weighted``, among the peaks along the yarn ``axes``
+    (:func:`along_axes`) when their strength is at least :data:`AXES_MIN_STRENGTH`
+    and some peak lies along them; a weave repeat (a plain weave's checkerboard,
+    a twill's ribs, a satin's floats) lies off them.
 
     Raises
     ------
     ValueError
-        For an unknown ``peak`` or an empty ``peaks``.
+        For an unknown ``peak``, an empty ``peaks``, or ``axes`` without yarn axes.
     """
     check_period_peak(peak)
     if len(peaks) == 0:
         raise ValueError("no lattice peaks to choose the period from")
+    peaks = np.asarray(peaks)
     radii = np.array([refined_radius(s, int(k)) for k in peaks])
-    power = s.smoothed.flat[np.asarray(peaks)]
-    score = power * radii if peak == "weighted" else power
+    power = s.smoothed.flat[peaks]
+    score = power if peak == "strongest" else power * radii
+    if peak == "axes":
+        if axes is None:
+            raise ValueError("period_peak 'axes' needs the yarn axes of the field")
+        aligned = along_axes(s, peaks, axes)
+        if axes.strength >= AXES_MIN_STRENGTH and aligned.any():
+            score = np.where(aligned, score, -np.inf)
     return int(np.argmax(score))
 
 

@@ -1,0 +1,38 @@
+"""period_axes.py: periods within 5% and the classifier's proxy, with the run's period pick and with ``axes``."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "workflow" / "benchmarks"))
+import period_axes as pa  # noqa: E402
+
+
+def test_a_period_counts_when_within_five_percent_of_the_truth_as_seen(tmp_path, monkeypatch):
+    monkeypatch.setattr(pa, "seen_scale", lambda record: 1.1)  # the folds bring the cloth 10% nearer
+    truth = tmp_path / "truth" / "twill"
+    truth.mkdir(parents=True)
+    for image_id, periodic in (("a", True), ("b", True), ("c", True), ("d", False)):
+        (truth / f"{image_id}.truth.json").write_text(json.dumps(
+            {"periodic": periodic, "thread_period_px": 10.0 if periodic else None, "course_period_px": None}))
+    run = tmp_path / "run"
+    for image_id, period in (("a", 11.3), ("b", 31.1), ("d", 5.0)):  # c: never prepared
+        (run / "prepared" / image_id).mkdir(parents=True)
+        (run / "prepared" / image_id / "status.json").write_text(json.dumps({"scale": {"native_period_px": period}}))
+    records = pa.truth_records(tmp_path / "truth")
+    assert sorted(records) == ["a", "b", "c"]
+    assert pa.periods_within(run, records) == 1  # a: 11.3 against 11.0; b: a twill rib; c: no status
+
+
+def test_the_summary_sums_the_sets():
+    rows = [{"set": s, "run": r, "folder": f"{s}_{r}", "periodic": p, "period_within_5pct": w, "proxy_correct": c, "images": n}
+            for s, p, n, counts in (("m", 30, 30, ((24, 24), (24, 25))), ("w", 36, 36, ((23, 24), (27, 23))))
+            for r, w, c in zip(pa.RUNS, *counts)]
+    text = pa.markdown(pd.DataFrame(rows))
+    assert "| `m` | 30 | 24 | 24 | 30 | 24 | 25 |" in text
+    assert "| `w` | 36 | 23 | 24 | 36 | 27 | 23 |" in text
+    assert "| all | 66 | 47 | 48 | 66 | 51 | 48 |" in text
+
