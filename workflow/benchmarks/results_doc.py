@@ -639,7 +639,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
         BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
         BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
-                        f"{py}/class_subsets.py --holdout results/holdout_1147/run results/holdout_1151/run"),
+                        f"{py}/class_subsets.py --holdout results/holdout_1158/run"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all"),
         BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),
