@@ -36,3 +36,10 @@ def test_the_summary_sums_the_sets():
     assert "| `w` | 36 | 23 | 24 | 36 | 27 | 23 |" in text
     assert "| all | 66 | 47 | 48 | 66 | 51 | 48 |" in text
 
+
+
+def test_the_native_summary_sums_the_field_folders():
+    table = pd.DataFrame([{"set": "a/field", "periodic": 30, "weighted": 24, "axes": 25},
+                          {"set": "b/field", "periodic": 36, "weighted": 24, "axes": 29}])
+    text = pa.native_markdown(table)
+    assert "| `a/field` | 30 | 24 | 25 |" in text and "| all | 66 | 48 | 54 |" in text

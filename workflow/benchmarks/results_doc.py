@@ -525,6 +525,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/held_out_tiles_design.md",),
                         f"{py}/held_out_tiles.py results results/microscope_1152/run results/microscope_1153/run "
                         "results/weaves_1154/run results/weaves_1155/run --name held_out_tiles_design"),
+        BenchmarkReport("The yarn axes pick the thread period's peak, screening",
+                        ("bench/period_axes_native.md",),
+                        f"{py}/period_axes.py --native results/microscope_1152/field results/weaves_1154/field "
+                        "results/microscope_1153/field results/weaves_1155/field"),
         BenchmarkReport("The yarn axes pick the thread period's peak, confirmation",
                         ("bench/period_axes.md",),
                         f"{py}/period_axes.py --set results/microscope_1156/run results/microscope_1156/run_axes "
