@@ -120,9 +120,10 @@ class NativeLattice:
 def yarn_axes(field: np.ndarray) -> YarnAxes:
     """The yarn axes of an analysis field: the 4-fold moment of its gradient orientations.
 
-    Gradients (after a 1 px Gaussian) are weighted by their squared length; a woven
-    lattice's yarn edges put most of that weight along the two yarn directions, a
-    weave repeat's diagonal ribs and round, ring-lit crossings little.
+    Gradients (after a 1 px Gaussian) are weighted by their squared length. Where
+    the yarns' edges carry most of that weight, the moment's phase over 4 is a yarn
+    direction and its modulus says how clearly the field shows it (round, ring-lit
+    crossings or a smooth rib much stronger than the edges leave it low or turn it).
     """
     gy, gx = np.gradient(ndimage.gaussian_filter(np.asarray(field, dtype=np.float64), 1.0))
     weight = gx**2 + gy**2
