@@ -125,23 +125,23 @@ def predict_photo(photo: str, image_id: str, model: QdaModel, physics_table: dic
         dirs["fitted"] = _fit(work / "prepared", work / "fit", settings, threads, log, step)
     step("features")
     tables, tile_tables = {}, {}
-    with_tiles = scored_with_tiles(model)
+    tiled = scored_with_tiles(model)
     for source in sources:
         if source not in dirs:
             raise ValueError(f"model reads {source!r} features, which a photo does not have")
         row = features_job(image_id, None, source, photo, str(dirs[source]), settings["features"],
                            str(work / "features" / f"{source}.parquet"), str(work / "features" / f"{source}.png"),
-                           tiles_path=str(work / "features" / f"{source}.tiles.parquet") if with_tiles else None,
+                           tiles_path=str(work / "features" / f"{source}.tiles.parquet") if tiled else None,
                            prepared_dir=str(work / "prepared"))
         tables[source] = pd.DataFrame([row])
-        if with_tiles:
+        if tiled:
             tile_tables[source] = pd.read_parquet(work / "features" / f"{source}.tiles.parquet")
     step("classify")
     table = joined_table(tables)
     row = table.iloc[0]
     if row["status"] != STATUS_OK:
         return Prediction(photo, image_id, None, None, None, f"{photo}: {row['reason']}")
-    result = predict(model, table, joined_tiles(tables, tile_tables) if with_tiles else None).iloc[0]
+    result = predict(model, table, joined_tiles(tables, tile_tables) if tiled else None).iloc[0]
     posteriors = {c: float(result[posterior_column(c)]) for c in model.classes}
     target = work / "physics.json"
     write_json(target, {"image_id": image_id, "photo": str(photo), "predicted_class": str(result["predicted_class"]),

@@ -70,11 +70,11 @@ def periods_within(run: Path, records: dict[str, dict]) -> int:
 def native_rows(field: Path) -> dict:
     """Periodic photos of a field folder, and those whose native period each pick reads within 5% of the truth."""
     lattice = StructureSettings(**validated_config()["features"]["structure"])
+    records = truth_records(field)
     row = {"set": shown(field), "periodic": 0, "weighted": 0, "axes": 0}
     for path in sorted(field.glob("*/*.jpg")):
-        truth = path.with_name(f"{path.stem}.truth.json")
-        record = json.loads(truth.read_text(encoding="utf-8"))
-        if not record.get("periodic"):
+        record = records.get(path.stem)
+        if record is None:  # not periodic
             continue
         rgb = decode_image(path, *DECODE).rgb
         row["periodic"] += 1

@@ -284,8 +284,8 @@ def predict(model: QdaModel, table_rows: pd.DataFrame, tiles: pd.DataFrame | Non
     table_rows
         Rows with ``image_id`` and the model's feature columns.
     tiles
-        Tile rows (:func:`clothscope.classify.feature_sets.joined_tiles`), or None: each row is then
-        classified by the mean posterior of the row and its image's tiles (``classify.test_tiles: mean``).
+        Tile rows (:func:`clothscope.classify.feature_sets.joined_tiles`): each row is then classified by the
+        mean posterior of the row and its image's tiles (``classify.test_tiles: mean``); None: by the row alone.
 
     Returns
     -------
