@@ -41,6 +41,17 @@ def test_config_defaults_are_filled():
     assert config["synthesize"]["spp"] == 64
 
 
+def test_a_key_set_to_its_default_gives_the_params_text_of_a_key_left_out():
+    """Snakemake compares a rule's params as text: the filled config must not depend on the order keys were written in."""
+    defaults = validate({}, CONFIG_SCHEMA, "config")
+    overlay = {"prepare": {"period_peak": defaults["prepare"]["period_peak"]},
+               "fit": {"normals": {"spp": defaults["fit"]["normals"]["spp"]}}}
+    written = validate(overlay, CONFIG_SCHEMA, "config")
+    for section in ("prepare", "fit", "features", "classify"):
+        assert repr(written[section]) == repr(defaults[section])
+    assert list(written["prepare"]) == list(CONFIG_SCHEMA["properties"]["prepare"]["properties"])
+
+
 @pytest.mark.parametrize(
     "bad, fragment",
     [

@@ -29,15 +29,22 @@ def load_schema(path: str | os.PathLike[str]) -> dict[str, Any]:
 
 
 def fill_defaults(instance: Any, schema: dict[str, Any]) -> Any:
-    """Return a copy of ``instance`` with every missing ``default`` of ``schema`` filled in."""
+    """Return a copy of ``instance`` with every missing ``default`` of ``schema`` filled in.
+
+    The keys of each mapping come in the schema's order, then any the schema does not
+    name: a key set to its default equals a key left out, down to the order, so a rule's
+    ``params`` (which Snakemake compares as text) do not change with how a config was written.
+    """
     if schema.get("type") != "object" or not isinstance(instance, dict):
         return instance
-    filled = copy.deepcopy(instance)
-    for key, sub in schema.get("properties", {}).items():
-        if key not in filled and "default" in sub:
-            filled[key] = copy.deepcopy(sub["default"])
-        if key in filled:
-            filled[key] = fill_defaults(filled[key], sub)
+    properties = schema.get("properties", {})
+    filled: dict[str, Any] = {}
+    for key, sub in properties.items():
+        if key in instance:
+            filled[key] = fill_defaults(copy.deepcopy(instance[key]), sub)
+        elif "default" in sub:
+            filled[key] = fill_defaults(copy.deepcopy(sub["default"]), sub)
+    filled |= {key: copy.deepcopy(value) for key, value in instance.items() if key not in properties}
     return filled
 
 
