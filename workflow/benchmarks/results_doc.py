@@ -148,6 +148,14 @@ def workflow_runs(results: Path) -> list[Run]:
                    f"--config samples={r}/{folder}/{images}/samples.tsv results={r}/{folder}/run")
         return Run(label, results / folder / "run", results / folder / images / "samples.tsv", command)
 
+    def fitted_field_run(label: str, folder: str) -> Run:
+        """A field set rendered by ``config/overlays/<folder>.yaml`` (whose ``run`` holds only the photo's features)
+        run whole, fits included, with the current defaults into ``results/<folder>/run_axes``."""
+        command = (f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{folder}.yaml "
+                   f"&& .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv "
+                   f"results={r}/{folder}/run_axes")
+        return Run(label, results / folder / "run_axes", results / folder / "field" / "samples.tsv", command)
+
     return [
         Run("design", results, default_sheet, design),
         Run("held-out", results / "holdout" / "run", results / "holdout" / "samples.tsv", holdout),
@@ -176,6 +184,8 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("microscope-like weaves 1150", "microscope_1150", "field"),
         rendered_run("held-out 1151", "holdout_1151", "holdout"),
         rendered_run("held-out 1158", "holdout_1158", "holdout"),
+        fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
+        fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -482,6 +492,11 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Feature sets by capture, the design weave sets (default fit)", ("bench/base_2sets.md",),
                         f"{py}/pooled_captures.py --set results/weaves/run results/weaves/field/samples.tsv "
                         "--set results/weaves_confirm/run results/weaves_confirm/field/samples.tsv --each --name base_2sets"),
+        BenchmarkReport("Feature sets by capture, two fresh capture sets fitted with the current defaults",
+                        ("bench/fitted_1156_1157.md",),
+                        f"{py}/pooled_captures.py --set results/microscope_1156/run_axes "
+                        "results/microscope_1156/field/samples.tsv --set results/weaves_1157/run_axes "
+                        "results/weaves_1157/field/samples.tsv --each --name fitted_1156_1157"),
         BenchmarkReport("Thread periods on a fresh nine-class set (seed 20261207)", ("bench/field_set_confirm.md",),
                         f"{py}/field_set.py --field results/period_confirm/field --run results/period_confirm/run "
                         "--name field_set_confirm"),
@@ -681,6 +696,11 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Fit time per image on field photos, prepare included", ("bench/fit_speed_field/fit_speed.md",),
                         f"{py}/fit_speed.py --sheet results/weaves/field/samples.tsv --prepare --variants default --rounds 1 "
                         f"--images {FIELD_TIMED} --out results/bench/fit_speed_field"),
+        BenchmarkReport("Fit time per image on an idle machine, 2026-11-28 evening", ("bench/fit_speed_quiet/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants default,fast --out results/bench/fit_speed_quiet"),
+        BenchmarkReport("The normal-map step on the same evening: the machine's speed", ("bench/backward_pass_1128.md",),
+                        f"{py}/backward_pass.py --ways direct --name backward_pass_1128 (run alone, right after "
+                        "fit_speed_quiet)"),
         BenchmarkReport("Run-to-run noise and the lean fit", ("bench/run_figures/run_figures.md",),
                         f"{py}/run_figures.py results results/exp_seed/design results/exp_lean/design results/holdout/run "
                         "results/exp_lean/holdout results/holdout_confirm/run results/exp_seed/confirm results/exp_lean/confirm "
