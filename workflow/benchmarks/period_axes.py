@@ -4,7 +4,7 @@
     .venv/bin/python workflow/benchmarks/period_axes.py --native FIELD [FIELD ...] [--name period_axes_native]
 
 Each set is a run whose photos ``prepare`` read with one peak pick (``RUN``), the same photos prepared again with
-``axes`` (``AXES_RUN``, for example with ``config/overlays/period_axes.yaml``) and the folder of their truth records
+``axes`` (``AXES_RUN``; ``RUN`` prepared for example with ``config/overlays/period_weighted.yaml``) and the folder of their truth records
 (``TRUTH/<class>/<id>.*`` beside ``<id>.truth.json``). Per set and run:
 
 - the periodic photos whose recorded native period (``scale.native_period_px`` of ``prepared/<id>/status.json``)
@@ -15,7 +15,8 @@ Each set is a run whose photos ``prepare`` read with one peak pick (``RUN``), th
   ``photo's sets``).
 
 With ``--native``, no run is needed: each periodic photo of each field folder is decoded and its native period read
-both ways, ``weighted`` and ``axes``, as ``prepare`` would (centred 1024 px, shading); the report then gives periods
+both ways, ``weighted`` and ``axes``, as ``prepare`` would (the config's ``prepare.period_window`` and
+``period_field``); the report then gives periods
 within 5% only (how the pick's settings were chosen, on sets no confirmation used). Writes
 ``results/bench/<name>.{csv,md}``.
 """
@@ -69,7 +70,8 @@ def periods_within(run: Path, records: dict[str, dict]) -> int:
 
 def native_rows(field: Path) -> dict:
     """Periodic photos of a field folder, and those whose native period each pick reads within 5% of the truth."""
-    lattice = StructureSettings(**validated_config()["features"]["structure"])
+    config = validated_config()
+    lattice, prepare = StructureSettings(**config["features"]["structure"]), config["prepare"]
     records = truth_records(field)
     row = {"set": shown(field), "periodic": 0, "weighted": 0, "axes": 0}
     for path in sorted(field.glob("*/*.jpg")):
@@ -79,7 +81,8 @@ def native_rows(field: Path) -> dict:
         rgb = decode_image(path, *DECODE).rgb
         row["periodic"] += 1
         for peak in ("weighted", "axes"):
-            row[peak] += is_within(native_period(rgb, 1024, lattice, "shading", peak), record)
+            period = native_period(rgb, prepare["period_window"], lattice, prepare["period_field"], peak)
+            row[peak] += is_within(period, record)
     return row
 
 
@@ -126,7 +129,9 @@ def markdown(table: pd.DataFrame) -> str:
 
 def native_markdown(table: pd.DataFrame) -> str:
     """Per field folder, periodic photos and those each pick reads within 5%; then summed."""
-    lines = ["Periodic photos whose native period (centred 1024 px, shading, as `prepare` reads it) lies within 5% of "
+    prepare = validated_config()["prepare"]
+    lines = [f"Periodic photos whose native period (centred {prepare['period_window']} px, {prepare['period_field']}, "
+             "as `prepare` reads it) lies within 5% of "
              "the truth as seen, with the peak of most power times frequency (`weighted`) and that peak among those "
              "along the yarn axes (`axes`).", "", "| field | periodic | weighted | axes |", "|---|---|---|---|"]
     rows = [*((f"`{r['set']}`", r) for _, r in table.iterrows()), ("all", table[["periodic", "weighted", "axes"]].sum())]
