@@ -1,4 +1,4 @@
-"""period_axes.py: periods within 5% and the classifier's proxy, with the run's period pick and with ``axes``."""
+"""period_axes.py: periods within 5% and the classifier's proxy, with the run's period pick and with a candidate pick."""
 from __future__ import annotations
 
 import json
@@ -25,21 +25,24 @@ def test_a_period_counts_when_within_five_percent_of_the_truth_as_seen(tmp_path,
     records = pa.truth_records(tmp_path / "truth")
     assert sorted(records) == ["a", "b", "c"]
     assert pa.periods_within(run, records) == 1  # a: 11.3 against 11.0; b: a twill rib; c: no status
+    assert pa.periods_too_long(run, records) == 1  # b: 31.1 against 11.0
 
 
 def test_the_summary_sums_the_sets():
-    rows = [{"set": s, "run": r, "folder": f"{s}_{r}", "periodic": p, "period_within_5pct": w, "proxy_correct": c, "images": n}
-            for s, p, n, counts in (("m", 30, 30, ((24, 24), (24, 25))), ("w", 36, 36, ((23, 24), (27, 23))))
-            for r, w, c in zip(pa.RUNS, *counts)]
-    text = pa.markdown(pd.DataFrame(rows))
-    assert "| `m` | 30 | 24 | 24 | 30 | 24 | 25 |" in text
-    assert "| `w` | 36 | 23 | 24 | 36 | 27 | 23 |" in text
-    assert "| all | 66 | 47 | 48 | 66 | 51 | 48 |" in text
-
+    rows = [{"set": s, "run": r, "folder": f"{s}_{r}", "periodic": p, "period_within_5pct": w, "period_too_long": t,
+             "proxy_correct": c, "images": n}
+            for s, p, n, counts in (("m", 30, 30, ((24, 24), (3, 2), (24, 25))), ("w", 36, 36, ((23, 24), (5, 5), (27, 23))))
+            for r, w, t, c in zip(pa.RUNS, *counts)]
+    text = pa.markdown(pd.DataFrame(rows), "axes_harmonic")
+    assert "within 5%, axes_harmonic" in text
+    assert "| `m` | 30 | 24 | 24 | 3 | 2 | 30 | 24 | 25 |" in text
+    assert "| `w` | 36 | 23 | 24 | 5 | 5 | 36 | 27 | 23 |" in text
+    assert "| all | 66 | 47 | 48 | 8 | 7 | 66 | 51 | 48 |" in text
 
 
 def test_the_native_summary_sums_the_field_folders():
-    table = pd.DataFrame([{"set": "a/field", "periodic": 30, "weighted": 24, "axes": 25},
-                          {"set": "b/field", "periodic": 36, "weighted": 24, "axes": 29}])
-    text = pa.native_markdown(table)
-    assert "| `a/field` | 30 | 24 | 25 |" in text and "| all | 66 | 48 | 54 |" in text
+    table = pd.DataFrame([{"set": "a/field", "periodic": 30, "weighted": 24, "axes": 25, "axes_harmonic": 27},
+                          {"set": "b/field", "periodic": 36, "weighted": 24, "axes": 29, "axes_harmonic": 29}])
+    text = pa.native_markdown(table, ["weighted", "axes", "axes_harmonic"])
+    assert "| `a/field` | 30 | 24 | 25 | 27 |" in text and "| all | 66 | 48 | 54 | 56 |" in text
+    assert "| field | periodic | `weighted` | `axes` | `axes_harmonic` |" in text

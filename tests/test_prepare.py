@@ -248,6 +248,7 @@ def test_the_yarn_axes_read_the_threads_where_a_twill_rib_outshines_them(angle_d
     rgb = twill_photo(1024, 12.0, angle_deg)
     assert native_period(rgb, 1024, LATTICE, "shading", "weighted") == pytest.approx(12.0 * 2 * np.sqrt(2), rel=0.05)
     assert native_period(rgb, 1024, LATTICE, "shading", "axes") == pytest.approx(12.0, rel=0.05)
+    assert native_period(rgb, 1024, LATTICE, "shading", "axes_harmonic") == pytest.approx(12.0, rel=0.05)
     axes = yarn_axes(analysis_field(rgb[..., 1], 0.0))
     assert axes.strength > 0.1
     assert abs((np.rad2deg(axes.angle) - angle_deg + 45) % 90 - 45) < 5  # an axis along the yarns, modulo 90 degrees
@@ -269,6 +270,41 @@ def test_without_clear_yarn_axes_the_axes_pick_is_the_weighted_one():
         period_peak_index(native.spectrum, peaks, "axes")
 
 
+def crossings_photo(side: int, period: float, angle_deg: float, seed: int = 0) -> np.ndarray:
+    """Linear RGB of yarn crossings lit from the lens: a round bright dome (Gaussian, 0.1 period wide) at every crossing
+    of a square lattice ``period`` px apart, whose (1, 1) harmonic has the most power times frequency."""
+    from clothscope.core.imageio import srgb_to_linear
+
+    rows, cols = np.mgrid[0:side, 0:side].astype(np.float64)
+    a = np.deg2rad(angle_deg)
+    u, v = (cols * np.cos(a) + rows * np.sin(a)) / period, (-cols * np.sin(a) + rows * np.cos(a)) / period
+    dome = np.exp(-((u % 1.0 - 0.5) ** 2 + (v % 1.0 - 0.5) ** 2) / (2 * 0.1**2))
+    grey = 0.25 + 0.4 * dome + 0.02 * np.random.default_rng(seed).standard_normal(dome.shape)
+    return srgb_to_linear(np.repeat(np.clip(grey, 0, 1)[..., None], 3, axis=-1))
+
+
+@pytest.mark.parametrize("angle_deg", [20.0, -35.0])
+def test_without_yarn_axes_a_harmonic_of_round_crossings_steps_down_to_the_threads(angle_deg):
+    from clothscope.prepare.image import (
+        AXES_MIN_STRENGTH,
+        native_lattice,
+        native_period,
+        period_peak_index,
+        threads_below_harmonic,
+    )
+
+    rgb = crossings_photo(1024, 16.0, angle_deg)
+    native = native_lattice(rgb, 1024, LATTICE)
+    assert native.axes.strength < AXES_MIN_STRENGTH  # round domes: no yarn direction in the gradients
+    for peak in ("weighted", "axes"):
+        assert native_period(rgb, 1024, LATTICE, "shading", peak) == pytest.approx(16.0 / np.sqrt(2), rel=0.05)
+    assert native_period(rgb, 1024, LATTICE, "shading", "axes_harmonic") == pytest.approx(16.0, rel=0.05)
+    s, peaks = native.spectrum, native.found.peaks
+    pick = period_peak_index(s, peaks, "weighted")
+    assert threads_below_harmonic(s, peaks, pick) != pick
+    assert threads_below_harmonic(s, peaks, pick, min_power=100.0) == pick  # the threads' peak is not that strong
+
+
 def test_an_unknown_period_peak_is_refused():
     from clothscope.prepare.image import native_period
 
@@ -278,6 +314,9 @@ def test_an_unknown_period_peak_is_refused():
         dataclasses.replace(config_settings("prepare"), period_peak="tallest")
     with pytest.raises(InputError, match="prepare.period_peak: 'tallest' is not one of"):
         config_settings("prepare", period_peak="tallest")
+    from clothscope.prepare.image import PERIOD_PEAKS
+
+    assert all(config_settings("prepare", period_peak=peak).period_peak == peak for peak in PERIOD_PEAKS)  # schema agrees
 
 
 def test_thread_scale_crops_fine_threads_into_the_band_and_records_it(tmp_path):

@@ -1,10 +1,13 @@
-"""Benchmark: the thread period from the peaks along the yarn axes (``prepare.period_peak: axes``) against another pick.
+"""Benchmark: the thread period from one lattice peak pick (``prepare.period_peak``, such as ``axes``) against another.
 
-    .venv/bin/python workflow/benchmarks/period_axes.py --set RUN AXES_RUN TRUTH [--set ...] [--name period_axes]
-    .venv/bin/python workflow/benchmarks/period_axes.py --native FIELD [FIELD ...] [--name period_axes_native]
+    .venv/bin/python workflow/benchmarks/period_axes.py --set RUN CANDIDATE_RUN TRUTH [--set ...] [--candidate axes]
+        [--name period_axes]
+    .venv/bin/python workflow/benchmarks/period_axes.py --native FIELD [FIELD ...] [--peaks weighted axes]
+        [--name period_axes_native]
 
 Each set is a run whose photos ``prepare`` read with one peak pick (``RUN``), the same photos prepared again with
-``axes`` (``AXES_RUN``; ``RUN`` prepared for example with ``config/overlays/period_weighted.yaml``) and the folder of their truth records
+the candidate pick (``CANDIDATE_RUN``, named by ``--candidate``; ``RUN`` prepared for example with
+``config/overlays/period_weighted.yaml``) and the folder of their truth records
 (``TRUTH/<class>/<id>.*`` beside ``<id>.truth.json``). Per set and run:
 
 - the periodic photos whose recorded native period (``scale.native_period_px`` of ``prepared/<id>/status.json``)
@@ -15,7 +18,7 @@ Each set is a run whose photos ``prepare`` read with one peak pick (``RUN``), th
   ``photo's sets``).
 
 With ``--native``, no run is needed: each periodic photo of each field folder is decoded and its native period read
-both ways, ``weighted`` and ``axes``, as ``prepare`` would (the config's ``prepare.period_window`` and
+with each pick of ``--peaks``, as ``prepare`` would (the config's ``prepare.period_window`` and
 ``period_field``); the report then gives periods
 within 5% only (how the pick's settings were chosen, on sets no confirmation used). Writes
 ``results/bench/<name>.{csv,md}``.
@@ -35,10 +38,10 @@ from held_out_tiles import scored_lists
 from clothscope.core.imageio import decode_image
 from clothscope.evaluate.accuracy import seen_scale
 from clothscope.features.structure import StructureSettings
-from clothscope.prepare.image import STATUS_FILE, native_period
+from clothscope.prepare.image import PERIOD_PEAKS, STATUS_FILE, native_period
 
 #: the two runs of a set, in the order reported
-RUNS = ("run", "axes")
+RUNS = ("run", "candidate")
 
 
 def truth_records(truth: Path) -> dict[str, dict]:
@@ -51,36 +54,55 @@ def truth_records(truth: Path) -> dict[str, dict]:
     return records
 
 
+#: a period read at least this many times the truth counts as too long
+TOO_LONG = 1.3
+
+
+def seen_ratio(measured: float | None, record: dict) -> float | None:
+    """A native period over the truth as seen (the closer of the thread and course periods); None without one."""
+    seen = seen_scale(record)
+    return period_ratio(measured, [p * seen for p in (record.get("thread_period_px"), record.get("course_period_px")) if p])
+
+
 def is_within(measured: float | None, record: dict) -> bool:
     """Whether a native period lies within :data:`TOLERANCE` of the truth as seen (thread or course period)."""
-    seen = seen_scale(record)
-    ratio = period_ratio(measured, [p * seen for p in (record.get("thread_period_px"), record.get("course_period_px")) if p])
+    ratio = seen_ratio(measured, record)
     return ratio is not None and abs(ratio - 1) <= TOLERANCE
+
+
+def recorded_ratios(run: Path, records: dict[str, dict]) -> list[float | None]:
+    """Per periodic photo, the period ``prepare`` recorded in ``run`` over the truth as seen (None: none recorded)."""
+    ratios = []
+    for image_id, record in records.items():
+        status = run / "prepared" / image_id / STATUS_FILE
+        scale = (json.loads(status.read_text(encoding="utf-8")).get("scale") or {}) if status.is_file() else {}
+        ratios.append(seen_ratio(scale.get("native_period_px"), record))
+    return ratios
 
 
 def periods_within(run: Path, records: dict[str, dict]) -> int:
     """Periodic photos whose period ``prepare`` recorded in ``run`` lies within :data:`TOLERANCE` of the truth."""
-    within = 0
-    for image_id, record in records.items():
-        status = run / "prepared" / image_id / STATUS_FILE
-        scale = (json.loads(status.read_text(encoding="utf-8")).get("scale") or {}) if status.is_file() else {}
-        within += is_within(scale.get("native_period_px"), record)
-    return within
+    return sum(r is not None and abs(r - 1) <= TOLERANCE for r in recorded_ratios(run, records))
 
 
-def native_rows(field: Path) -> dict:
+def periods_too_long(run: Path, records: dict[str, dict]) -> int:
+    """Periodic photos whose period ``prepare`` recorded in ``run`` is at least :data:`TOO_LONG` times the truth."""
+    return sum(r is not None and r >= TOO_LONG for r in recorded_ratios(run, records))
+
+
+def native_rows(field: Path, peaks: list[str]) -> dict:
     """Periodic photos of a field folder, and those whose native period each pick reads within 5% of the truth."""
     config = validated_config()
     lattice, prepare = StructureSettings(**config["features"]["structure"]), config["prepare"]
     records = truth_records(field)
-    row = {"set": shown(field), "periodic": 0, "weighted": 0, "axes": 0}
+    row = {"set": shown(field), "periodic": 0, **{peak: 0 for peak in peaks}}
     for path in sorted(field.glob("*/*.jpg")):
         record = records.get(path.stem)
         if record is None:  # not periodic
             continue
         rgb = decode_image(path, *DECODE).rgb
         row["periodic"] += 1
-        for peak in ("weighted", "axes"):
+        for peak in peaks:
             period = native_period(rgb, prepare["period_window"], lattice, prepare["period_field"], peak)
             row[peak] += is_within(period, record)
     return row
@@ -101,60 +123,64 @@ def set_rows(runs: tuple[Path, Path], truth: Path) -> list[dict]:
     for label, run in zip(RUNS, runs):
         correct, n = proxy_correct(run, settings)
         rows.append({"set": shown(runs[0]), "run": label, "folder": shown(run), "periodic": len(records),
-                     "period_within_5pct": periods_within(run, records), "proxy_correct": correct, "images": n})
+                     "period_within_5pct": periods_within(run, records),
+                     "period_too_long": periods_too_long(run, records), "proxy_correct": correct, "images": n})
     return rows
 
 
-def markdown(table: pd.DataFrame) -> str:
-    """Per set, both runs' periods within 5% and proxy images right; then summed."""
-    lines = ["Periodic photos whose `prepare` period lies within 5% of the truth as seen, and images right by the "
+def markdown(table: pd.DataFrame, candidate: str) -> str:
+    """Per set, both runs' periods within 5% and read too long, and proxy images right; then summed."""
+    values = ["period_within_5pct", "period_too_long", "proxy_correct"]
+    lines = ["Periodic photos whose `prepare` period lies within 5% of the truth as seen or is read at least "
+             f"{TOO_LONG:g} times too long, and images right by the "
              "classifier of record's proxy (the photo's sets chosen inside each fold, scored as `classify.test_tiles` "
-             "says), with the run's period pick and with `axes`.", "",
-             "| set | periodic | within 5%, run | within 5%, axes | images | proxy, run | proxy, axes |",
-             "|---|---|---|---|---|---|---|"]
-    wide = table.pivot(index="set", columns="run", values=["period_within_5pct", "proxy_correct"])
+             f"says), with the run's period pick and with `{candidate}`.", "",
+             f"| set | periodic | within 5%, run | within 5%, {candidate} | too long, run | too long, {candidate} | "
+             f"images | proxy, run | proxy, {candidate} |", "|---|---|---|---|---|---|---|---|---|"]
+    wide = table.pivot(index="set", columns="run", values=values)
     first = table.groupby("set")[["periodic", "images"]].first()
     sets = list(dict.fromkeys(table["set"]))
-    for name in sets:
-        w, f = wide.loc[name], first.loc[name]
-        lines.append(f"| `{name}` | {f['periodic']} | {w[('period_within_5pct', 'run')]} | "
-                     f"{w[('period_within_5pct', 'axes')]} | {f['images']} | {w[('proxy_correct', 'run')]} | "
-                     f"{w[('proxy_correct', 'axes')]} |")
-    total, count = wide.loc[sets].sum(), first.loc[sets].sum()
-    lines.append(f"| all | {count['periodic']} | {total[('period_within_5pct', 'run')]} | "
-                 f"{total[('period_within_5pct', 'axes')]} | {count['images']} | {total[('proxy_correct', 'run')]} | "
-                 f"{total[('proxy_correct', 'axes')]} |")
+    rows = [*((f"`{name}`", wide.loc[name], first.loc[name]) for name in sets),
+            ("all", wide.loc[sets].sum(), first.loc[sets].sum())]
+    for name, w, f in rows:
+        pairs = [f"{w[(value, 'run')]} | {w[(value, 'candidate')]}" for value in values]
+        lines.append(f"| {name} | {f['periodic']} | {pairs[0]} | {pairs[1]} | {f['images']} | {pairs[2]} |")
     return "\n".join(lines) + "\n"
 
 
-def native_markdown(table: pd.DataFrame) -> str:
+def native_markdown(table: pd.DataFrame, peaks: list[str]) -> str:
     """Per field folder, periodic photos and those each pick reads within 5%; then summed."""
     prepare = validated_config()["prepare"]
     lines = [f"Periodic photos whose native period (centred {prepare['period_window']} px, {prepare['period_field']}, "
-             "as `prepare` reads it) lies within 5% of "
-             "the truth as seen, with the peak of most power times frequency (`weighted`) and that peak among those "
-             "along the yarn axes (`axes`).", "", "| field | periodic | weighted | axes |", "|---|---|---|---|"]
-    rows = [*((f"`{r['set']}`", r) for _, r in table.iterrows()), ("all", table[["periodic", "weighted", "axes"]].sum())]
-    lines += [f"| {name} | {r['periodic']} | {r['weighted']} | {r['axes']} |" for name, r in rows]
+             "as `prepare` reads it) lies within 5% of the truth as seen, with each lattice peak pick "
+             "(`prepare.period_peak`; `weighted`: the peak of most power times frequency, `axes`: that peak among those "
+             "along the yarn axes, `axes_harmonic`: that, with a (1, 1) harmonic stepped down to the threads where the "
+             "photo shows no yarn axes).", "", "| field | periodic | " + " | ".join(f"`{p}`" for p in peaks) + " |",
+             "|---|---|" + "---|" * len(peaks)]
+    rows = [*((f"`{r['set']}`", r) for _, r in table.iterrows()), ("all", table[["periodic", *peaks]].sum())]
+    lines += [f"| {name} | {r['periodic']} | " + " | ".join(str(r[p]) for p in peaks) + " |" for name, r in rows]
     return "\n".join(lines) + "\n"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--set", nargs=3, action="append", metavar=("RUN", "AXES_RUN", "TRUTH"))
+    parser.add_argument("--set", nargs=3, action="append", metavar=("RUN", "CANDIDATE_RUN", "TRUTH"))
+    parser.add_argument("--candidate", default="axes", help="the pick CANDIDATE_RUN was prepared with (its label)")
     parser.add_argument("--native", nargs="+", metavar="FIELD", help="field folders read natively, without runs")
+    parser.add_argument("--peaks", nargs="+", default=["weighted", "axes"], choices=PERIOD_PEAKS,
+                        help="the picks compared with --native")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     parser.add_argument("--name")
     args = parser.parse_args()
     if bool(args.set) == bool(args.native):
         parser.error("give either --set (repeated) or --native")
     if args.native:
-        table = pd.DataFrame([native_rows(ROOT / field) for field in args.native])
-        publish(args.out, args.name or "period_axes_native", table, native_markdown(table))
+        table = pd.DataFrame([native_rows(ROOT / field, args.peaks) for field in args.native])
+        publish(args.out, args.name or "period_axes_native", table, native_markdown(table, args.peaks))
         return
-    rows = [row for run, axes, truth in args.set for row in set_rows((ROOT / run, ROOT / axes), ROOT / truth)]
+    rows = [row for run, candidate, truth in args.set for row in set_rows((ROOT / run, ROOT / candidate), ROOT / truth)]
     table = pd.DataFrame(rows)
-    publish(args.out, args.name or "period_axes", table, markdown(table))
+    publish(args.out, args.name or "period_axes", table, markdown(table, args.candidate))
 
 
 if __name__ == "__main__":

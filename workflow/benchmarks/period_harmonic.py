@@ -34,33 +34,25 @@ from clothscope.core.imageio import decode_image
 from clothscope.core.truth import truth_paths
 from clothscope.evaluate.accuracy import seen_scale
 from clothscope.features.structure import Spectrum, StructureSettings, refined_radius
-from clothscope.prepare.image import native_lattice, period_peak_index, period_peak_radius
+from clothscope.prepare.image import (
+    HARMONIC_MIN_POWER,
+    native_lattice,
+    period_peak_index,
+    period_peak_radius,
+    threads_below_harmonic,
+)
 
 #: periods within this fraction of the truth count as right; at most SHORT or at least LONG times it as wrong that way
 TOLERANCE, SHORT, LONG = 0.05, 0.75, 1.3
-#: how close a peak must lie to 1/sqrt(2) of the pick's radius (fraction) and to 45 degrees from its direction
-RADIUS_TOLERANCE, ANGLE_TOLERANCE_DEG = 0.05, 8.0
 #: least power of the threads' peak over the pick's at which the candidate steps down (``--beta``)
-BETA = 0.3
-
-
-def folded_angle_deg(a: float, b: float) -> float:
-    """Angle between two undirected directions given in degrees, folded to [0, 90]."""
-    return abs((a - b + 90.0) % 180.0 - 90.0)
+BETA = HARMONIC_MIN_POWER
 
 
 def threads_below(s: Spectrum, peaks: np.ndarray, beta: float) -> float:
-    """The radius (bins) ``prepare`` picks (:func:`clothscope.prepare.image.period_peak_index`, ``weighted``), or the
-    strongest peak at 1/sqrt(2) of it and 45 degrees from it when that holds at least ``beta`` of the pick's power."""
-    radii = np.array([refined_radius(s, int(k)) for k in peaks])
-    power = s.smoothed.flat[peaks]
-    angles = np.degrees(np.arctan2(s.dy.flat[peaks], s.dx.flat[peaks]))
-    first = period_peak_index(s, peaks, "weighted")
-    near = (np.abs(radii / (radii[first] / np.sqrt(2)) - 1) < RADIUS_TOLERANCE) & \
-           (np.abs(np.array([folded_angle_deg(a, angles[first]) for a in angles]) - 45.0) < ANGLE_TOLERANCE_DEG)
-    if near.any() and power[near].max() >= beta * power[first]:
-        return float(radii[near][int(np.argmax(power[near]))])
-    return float(radii[first])
+    """The radius (bins) ``prepare`` picks with ``weighted``, or that of the threads' peak below it when it is their
+    (1, 1) harmonic and that peak holds at least ``beta`` of its power (:func:`threads_below_harmonic`)."""
+    pick = threads_below_harmonic(s, peaks, period_peak_index(s, peaks, "weighted"), beta)
+    return refined_radius(s, int(peaks[pick]))
 
 
 def image_row(path: Path, lattice: StructureSettings, beta: float) -> dict | None:

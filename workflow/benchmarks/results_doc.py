@@ -551,6 +551,19 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "results/weaves_1157/field --set results/holdout_1158/run results/holdout_1158/run_axes "
                         "results/holdout_1158/holdout (RUN prepared with config/overlays/period_weighted.yaml, the "
                         "default until then; AXES_RUN with the default)"),
+        BenchmarkReport("A (1, 1) harmonic stepped down where the photo shows no yarn axes, screening",
+                        ("bench/period_axes_harmonic_screening.md",),
+                        f"{py}/period_axes.py --native results/microscope_1152/field results/microscope_1153/field "
+                        "results/microscope_1156/field results/weaves_1154/field results/weaves_1155/field "
+                        "results/weaves_1157/field --peaks weighted axes axes_harmonic "
+                        "--name period_axes_harmonic_screening"),
+        BenchmarkReport("A (1, 1) harmonic stepped down where the photo shows no yarn axes, confirmation",
+                        ("bench/period_axes_harmonic.md",),
+                        f"{py}/period_axes.py --set results/microscope_1159/run results/microscope_1159/run_axes_harmonic "
+                        "results/microscope_1159/field --set results/weaves_1160/run results/weaves_1160/run_axes_harmonic "
+                        "results/weaves_1160/field --candidate axes_harmonic --name period_axes_harmonic (RUN prepared "
+                        "with config/overlays/period_axes.yaml, the default until then, CANDIDATE_RUN with "
+                        "the default since (axes_harmonic); the commands are in config/overlays/period_axes.yaml)"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "

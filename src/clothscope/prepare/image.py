@@ -45,12 +45,19 @@ CLIPPED_FILE = "clipped.png"
 PREVIEW_FILE = "preview.png"
 #: which lattice peak gives the native period (``prepare.period_peak``): the most powerful, the one with the most
 #: power times frequency (a colour repeat many threads long then loses to the threads it is woven from), or that
-#: one among the peaks along the yarn axes when the photo shows them (a weave repeat then loses too)
-PERIOD_PEAKS = ("weighted", "strongest", "axes")
+#: one among the peaks along the yarn axes when the photo shows them (a weave repeat then loses too), or that, with a
+#: (1, 1) harmonic stepped down to the threads when the photo shows no yarn axes (round, ring-lit crossings)
+PERIOD_PEAKS = ("weighted", "strongest", "axes", "axes_harmonic")
 #: the yarn axes count when the 4-fold moment of the gradient orientations is at least this (:func:`yarn_axes`)
 AXES_MIN_STRENGTH = 0.1
 #: a lattice peak lies along a yarn axis when its direction is within this many degrees of one
 AXES_TOLERANCE_DEG = 12.0
+#: the threads' peak below a (1, 1) harmonic lies within this fraction of 1/sqrt(2) of its radius ...
+HARMONIC_RADIUS_TOLERANCE = 0.05
+#: ... within this many degrees of 45 degrees from its direction ...
+HARMONIC_ANGLE_TOLERANCE_DEG = 8.0
+#: ... and holds at least this fraction of its power (:func:`threads_below_harmonic`)
+HARMONIC_MIN_POWER = 0.3
 
 
 @dataclass(frozen=True)
@@ -66,7 +73,7 @@ class PrepareSettings:
     period_band: tuple[float, float]  # wanted thread period, working pixels
     period_window: int  # side of the native-resolution centre square the period is measured on
     period_field: str  # what the period is measured on: "shading" (yarn colours divided out) or "luminance"
-    period_peak: str  # which lattice peak gives the period: "weighted" (power times frequency) or "strongest"
+    period_peak: str  # which lattice peak gives the period, one of PERIOD_PEAKS
 
     def __post_init__(self) -> None:  # the schema checks every range; it cannot say low < high
         low, high = self.period_band
@@ -165,7 +172,10 @@ def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str, axes: YarnAxes 
     ``axes``: as ``weighted``, among the peaks along the yarn ``axes``
     (:func:`along_axes`) when their strength is at least :data:`AXES_MIN_STRENGTH`
     and some peak lies along them; a weave repeat (a plain weave's checkerboard,
-    a twill's ribs, a satin's floats) lies off them.
+    a twill's ribs, a satin's floats) lies off them. ``axes_harmonic``: as
+    ``axes``; when the axes do not restrict the pick, a (1, 1) harmonic is
+    stepped down to the threads (:func:`threads_below_harmonic`): round, ring-lit
+    crossings show no yarn axes, and their (1, 1) harmonic can win.
 
     Raises
     ------
@@ -179,13 +189,37 @@ def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str, axes: YarnAxes 
     radii = np.array([refined_radius(s, int(k)) for k in peaks])
     power = s.smoothed.flat[peaks]
     score = power if peak == "strongest" else power * radii
-    if peak == "axes":
+    if peak in ("axes", "axes_harmonic"):
         if axes is None:
-            raise ValueError("period_peak 'axes' needs the yarn axes of the field")
+            raise ValueError(f"period_peak {peak!r} needs the yarn axes of the field")
         aligned = along_axes(s, peaks, axes)
         if axes.strength >= AXES_MIN_STRENGTH and aligned.any():
-            score = np.where(aligned, score, -np.inf)
+            return int(np.argmax(np.where(aligned, score, -np.inf)))
+        if peak == "axes_harmonic":
+            return threads_below_harmonic(s, peaks, int(np.argmax(score)))
     return int(np.argmax(score))
+
+
+def threads_below_harmonic(s: Spectrum, peaks: np.ndarray, pick: int, min_power: float = HARMONIC_MIN_POWER) -> int:
+    """Index into ``peaks`` of the threads' peak when ``pick`` is their (1, 1) harmonic, else ``pick``.
+
+    The threads' peaks of a square lattice lie at 1/sqrt(2) of its (1, 1)
+    harmonic's radius, 45 degrees from it. The strongest peak there (within
+    :data:`HARMONIC_RADIUS_TOLERANCE` and :data:`HARMONIC_ANGLE_TOLERANCE_DEG`)
+    is taken when it holds at least ``min_power`` of the pick's power. A plain
+    weave's checkerboard of floats puts peaks at the same place below the
+    threads, which only the power ratio tells apart.
+    """
+    peaks = np.asarray(peaks)
+    radii = np.array([refined_radius(s, int(k)) for k in peaks])
+    power = s.smoothed.flat[peaks]
+    direction = np.arctan2(s.dy.flat[peaks], s.dx.flat[peaks])
+    turn = np.abs((direction - direction[pick] + np.pi / 2) % np.pi - np.pi / 2)  # undirected, in [0, pi/2]
+    near = ((np.abs(radii / (radii[pick] / np.sqrt(2)) - 1) < HARMONIC_RADIUS_TOLERANCE)
+            & (np.abs(turn - np.pi / 4) < np.deg2rad(HARMONIC_ANGLE_TOLERANCE_DEG)))
+    if near.any() and power[near].max() >= min_power * power[pick]:
+        return int(np.flatnonzero(near)[np.argmax(power[near])])
+    return pick
 
 
 def thread_crop(source_side: int, period: float | None, settings: PrepareSettings) -> tuple[int, dict[str, Any]]:
