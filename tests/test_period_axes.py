@@ -24,8 +24,9 @@ def test_a_period_counts_when_within_five_percent_of_the_truth_as_seen(tmp_path,
         (run / "prepared" / image_id / "status.json").write_text(json.dumps({"scale": {"native_period_px": period}}))
     records = pa.truth_records(tmp_path / "truth")
     assert sorted(records) == ["a", "b", "c"]
-    assert pa.periods_within(run, records) == 1  # a: 11.3 against 11.0; b: a twill rib; c: no status
-    assert pa.periods_too_long(run, records) == 1  # b: 31.1 against 11.0
+    ratios = pa.recorded_ratios(run, records)
+    assert pa.periods_within(ratios) == 1  # a: 11.3 against 11.0; b: a twill rib; c: no status
+    assert pa.periods_too_long(ratios) == 1  # b: 31.1 against 11.0
 
 
 def test_the_summary_sums_the_sets():

@@ -38,7 +38,7 @@ from held_out_tiles import scored_lists
 from clothscope.core.imageio import decode_image
 from clothscope.evaluate.accuracy import seen_scale
 from clothscope.features.structure import StructureSettings
-from clothscope.prepare.image import PERIOD_PEAKS, STATUS_FILE, native_period
+from clothscope.prepare.image import PERIOD_PEAKS, STATUS_FILE, lattice_period, native_lattice
 
 #: the two runs of a set, in the order reported
 RUNS = ("run", "candidate")
@@ -80,14 +80,14 @@ def recorded_ratios(run: Path, records: dict[str, dict]) -> list[float | None]:
     return ratios
 
 
-def periods_within(run: Path, records: dict[str, dict]) -> int:
-    """Periodic photos whose period ``prepare`` recorded in ``run`` lies within :data:`TOLERANCE` of the truth."""
-    return sum(r is not None and abs(r - 1) <= TOLERANCE for r in recorded_ratios(run, records))
+def periods_within(ratios: list[float | None]) -> int:
+    """Periods (:func:`recorded_ratios`) within :data:`TOLERANCE` of the truth."""
+    return sum(r is not None and abs(r - 1) <= TOLERANCE for r in ratios)
 
 
-def periods_too_long(run: Path, records: dict[str, dict]) -> int:
-    """Periodic photos whose period ``prepare`` recorded in ``run`` is at least :data:`TOO_LONG` times the truth."""
-    return sum(r is not None and r >= TOO_LONG for r in recorded_ratios(run, records))
+def periods_too_long(ratios: list[float | None]) -> int:
+    """Periods (:func:`recorded_ratios`) at least :data:`TOO_LONG` times the truth."""
+    return sum(r is not None and r >= TOO_LONG for r in ratios)
 
 
 def native_rows(field: Path, peaks: list[str]) -> dict:
@@ -100,11 +100,10 @@ def native_rows(field: Path, peaks: list[str]) -> dict:
         record = records.get(path.stem)
         if record is None:  # not periodic
             continue
-        rgb = decode_image(path, *DECODE).rgb
+        native = native_lattice(decode_image(path, *DECODE).rgb, prepare["period_window"], lattice, prepare["period_field"])
         row["periodic"] += 1
         for peak in peaks:
-            period = native_period(rgb, prepare["period_window"], lattice, prepare["period_field"], peak)
-            row[peak] += is_within(period, record)
+            row[peak] += is_within(lattice_period(native, peak), record)
     return row
 
 
@@ -122,9 +121,10 @@ def set_rows(runs: tuple[Path, Path], truth: Path) -> list[dict]:
     rows = []
     for label, run in zip(RUNS, runs):
         correct, n = proxy_correct(run, settings)
+        ratios = recorded_ratios(run, records)
         rows.append({"set": shown(runs[0]), "run": label, "folder": shown(run), "periodic": len(records),
-                     "period_within_5pct": periods_within(run, records),
-                     "period_too_long": periods_too_long(run, records), "proxy_correct": correct, "images": n})
+                     "period_within_5pct": periods_within(ratios),
+                     "period_too_long": periods_too_long(ratios), "proxy_correct": correct, "images": n})
     return rows
 
 

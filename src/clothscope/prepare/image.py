@@ -99,7 +99,11 @@ def native_period(rgb: np.ndarray, window: int, lattice: StructureSettings, fiel
     the period is that of the peak :func:`period_peak_radius` picks (``peak``).
     """
     check_period_peak(peak)
-    native = native_lattice(rgb, window, lattice, field)
+    return lattice_period(native_lattice(rgb, window, lattice, field), peak)
+
+
+def lattice_period(native: NativeLattice, peak: str) -> float | None:
+    """Thread period (native pixels) that the pick ``peak`` reads from a :class:`NativeLattice`; None without a lattice."""
     if not native.found.found:
         return None
     radius = period_peak_radius(native.spectrum, native.found.peaks, peak, native.axes)
