@@ -46,8 +46,9 @@ PREVIEW_FILE = "preview.png"
 #: which lattice peak gives the native period (``prepare.period_peak``): the most powerful, the one with the most
 #: power times frequency (a colour repeat many threads long then loses to the threads it is woven from), or that
 #: one among the peaks along the yarn axes when the photo shows them (a weave repeat then loses too), or that, with a
-#: (1, 1) harmonic stepped down to the threads when the photo shows no yarn axes (round, ring-lit crossings)
-PERIOD_PEAKS = ("weighted", "strongest", "axes", "axes_harmonic")
+#: (1, 1) harmonic stepped down to the threads when the photo shows no yarn axes (round, ring-lit crossings), or that,
+#: with a higher harmonic of the threads stepped down to them (a sharp rib or float edge under a ring light)
+PERIOD_PEAKS = ("weighted", "strongest", "axes", "axes_harmonic", "axes_fundamental")
 #: the yarn axes count when the 4-fold moment of the gradient orientations is at least this (:func:`yarn_axes`)
 AXES_MIN_STRENGTH = 0.1
 #: a lattice peak lies along a yarn axis when its direction is within this many degrees of one
@@ -58,6 +59,8 @@ HARMONIC_RADIUS_TOLERANCE = 0.05
 HARMONIC_ANGLE_TOLERANCE_DEG = 8.0
 #: ... and holds at least this fraction of its power (:func:`threads_below_harmonic`)
 HARMONIC_MIN_POWER = 0.3
+#: a pick is stepped down to the threads' peak at 1/m of its radius for these m (:func:`fundamental_below`)
+FUNDAMENTAL_ORDERS = (2, 3, 4)
 
 
 @dataclass(frozen=True)
@@ -193,7 +196,7 @@ def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str, axes: YarnAxes 
     radii = np.array([refined_radius(s, int(k)) for k in peaks])
     power = s.smoothed.flat[peaks]
     score = power if peak == "strongest" else power * radii
-    if peak in ("axes", "axes_harmonic"):
+    if peak in ("axes", "axes_harmonic", "axes_fundamental"):
         if axes is None:
             raise ValueError(f"period_peak {peak!r} needs the yarn axes of the field")
         aligned = along_axes(s, peaks, axes)
@@ -201,7 +204,38 @@ def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str, axes: YarnAxes 
             return int(np.argmax(np.where(aligned, score, -np.inf)))
         if peak == "axes_harmonic":
             return threads_below_harmonic(s, peaks, int(np.argmax(score)))
+        if peak == "axes_fundamental":
+            return fundamental_below(s, peaks, threads_below_harmonic(s, peaks, int(np.argmax(score))))
     return int(np.argmax(score))
+
+
+def fundamental_below(s: Spectrum, peaks: np.ndarray, pick: int) -> int:
+    """Index into ``peaks`` of the threads' peak when ``pick`` is their m-th harmonic, else ``pick``.
+
+    A thread lattice has no peak at 1/m (m in :data:`FUNDAMENTAL_ORDERS`) of its
+    peak's radius in the same direction: weave repeats (a plain weave's
+    checkerboard, a twill's or satin's floats) lie off the thread directions. A
+    peak there (within :data:`HARMONIC_RADIUS_TOLERANCE` of the radius and
+    :data:`HARMONIC_ANGLE_TOLERANCE_DEG` of the direction) that holds at least
+    the pick's power is the threads', and ``pick`` its harmonic. Of several,
+    the most powerful is taken.
+    """
+    peaks = np.asarray(peaks)
+    radii = np.array([refined_radius(s, int(k)) for k in peaks])
+    power = s.smoothed.flat[peaks]
+    turn = undirected_turn(s, peaks, pick)
+    near = np.zeros(len(peaks), dtype=bool)
+    for m in FUNDAMENTAL_ORDERS:
+        near |= np.abs(radii / (radii[pick] / m) - 1) < HARMONIC_RADIUS_TOLERANCE
+    near &= (turn < np.deg2rad(HARMONIC_ANGLE_TOLERANCE_DEG)) & (power >= power[pick])
+    near[pick] = False
+    return int(np.flatnonzero(near)[np.argmax(power[near])]) if near.any() else pick
+
+
+def undirected_turn(s: Spectrum, peaks: np.ndarray, pick: int) -> np.ndarray:
+    """Angle (radians, in [0, pi/2]) between each peak's direction and the pick's, up to sign."""
+    direction = np.arctan2(s.dy.flat[peaks], s.dx.flat[peaks])
+    return np.abs((direction - direction[pick] + np.pi / 2) % np.pi - np.pi / 2)
 
 
 def threads_below_harmonic(s: Spectrum, peaks: np.ndarray, pick: int, min_power: float = HARMONIC_MIN_POWER) -> int:
@@ -217,8 +251,7 @@ def threads_below_harmonic(s: Spectrum, peaks: np.ndarray, pick: int, min_power:
     peaks = np.asarray(peaks)
     radii = np.array([refined_radius(s, int(k)) for k in peaks])
     power = s.smoothed.flat[peaks]
-    direction = np.arctan2(s.dy.flat[peaks], s.dx.flat[peaks])
-    turn = np.abs((direction - direction[pick] + np.pi / 2) % np.pi - np.pi / 2)  # undirected, in [0, pi/2]
+    turn = undirected_turn(s, peaks, pick)
     near = ((np.abs(radii / (radii[pick] / np.sqrt(2)) - 1) < HARMONIC_RADIUS_TOLERANCE)
             & (np.abs(turn - np.pi / 4) < np.deg2rad(HARMONIC_ANGLE_TOLERANCE_DEG)))
     if near.any() and power[near].max() >= min_power * power[pick]:
