@@ -305,6 +305,42 @@ def test_without_yarn_axes_a_harmonic_of_round_crossings_steps_down_to_the_threa
     assert threads_below_harmonic(s, peaks, pick, min_power=100.0) == pick  # the threads' peak is not that strong
 
 
+def ribbed_photo(side: int, period: float, harmonic: int, share: float, seed: int = 0) -> np.ndarray:
+    """Linear RGB of threads ``period`` px apart along two axes at 20 degrees, each with its ``harmonic``-th harmonic at
+    ``share`` of its amplitude, under noise strong enough that the gradients show no yarn axes."""
+    from clothscope.core.imageio import srgb_to_linear
+
+    rows, cols = np.mgrid[0:side, 0:side].astype(np.float64)
+    a = np.deg2rad(20.0)
+    u, v = (cols * np.cos(a) + rows * np.sin(a)) / period, (-cols * np.sin(a) + rows * np.cos(a)) / period
+    relief = sum(np.cos(2 * np.pi * w) + share * np.cos(2 * np.pi * harmonic * w) for w in (u, v))
+    grey = 0.4 + 0.05 * relief + 0.1 * np.random.default_rng(seed).standard_normal(u.shape)
+    return srgb_to_linear(np.repeat(np.clip(grey, 0, 1)[..., None], 3, axis=-1))
+
+
+@pytest.mark.parametrize("harmonic", [2, 3, 4])
+def test_without_yarn_axes_a_higher_harmonic_steps_down_to_the_threads(harmonic):
+    from clothscope.prepare.image import AXES_MIN_STRENGTH, native_lattice, native_period
+
+    rgb = ribbed_photo(1024, 24.0, harmonic, share=0.8)  # the harmonic: 0.64 of the threads' power, m times their frequency
+    assert native_lattice(rgb, 1024, LATTICE).axes.strength < AXES_MIN_STRENGTH
+    for peak in ("weighted", "axes", "axes_harmonic"):
+        assert native_period(rgb, 1024, LATTICE, "shading", peak) == pytest.approx(24.0 / harmonic, rel=0.05)
+    assert native_period(rgb, 1024, LATTICE, "shading", "axes_fundamental") == pytest.approx(24.0, rel=0.05)
+
+
+def test_a_harmonic_stronger_than_the_peak_below_it_is_kept():
+    from clothscope.features.structure import refined_radius
+    from clothscope.prepare.image import fundamental_below, native_lattice, period_peak_index
+
+    native = native_lattice(ribbed_photo(1024, 24.0, 3, share=1.3), 1024, LATTICE)  # the harmonic: 1.7 times the power
+    s, peaks = native.spectrum, native.found.peaks
+    pick = period_peak_index(s, peaks, "weighted")
+    assert 1024 / refined_radius(s, int(peaks[pick])) == pytest.approx(8.0, rel=0.05)
+    assert fundamental_below(s, peaks, pick) == pick
+    assert fundamental_below(s, peaks, period_peak_index(s, peaks, "strongest")) == period_peak_index(s, peaks, "strongest")
+
+
 def test_an_unknown_period_peak_is_refused():
     from clothscope.prepare.image import native_period
 

@@ -155,7 +155,8 @@ def native_markdown(table: pd.DataFrame, peaks: list[str]) -> str:
              "as `prepare` reads it) lies within 5% of the truth as seen, with each lattice peak pick "
              "(`prepare.period_peak`; `weighted`: the peak of most power times frequency, `axes`: that peak among those "
              "along the yarn axes, `axes_harmonic`: that, with a (1, 1) harmonic stepped down to the threads where the "
-             "photo shows no yarn axes).", "", "| field | periodic | " + " | ".join(f"`{p}`" for p in peaks) + " |",
+             "photo shows no yarn axes, `axes_fundamental`: that, with a 2nd to 4th harmonic of the threads stepped down to "
+             "them where the photo shows no yarn axes).", "", "| field | periodic | " + " | ".join(f"`{p}`" for p in peaks) + " |",
              "|---|---|" + "---|" * len(peaks)]
     rows = [*((f"`{r['set']}`", r) for _, r in table.iterrows()), ("all", table[["periodic", *peaks]].sum())]
     lines += [f"| {name} | {r['periodic']} | " + " | ".join(str(r[p]) for p in peaks) + " |" for name, r in rows]

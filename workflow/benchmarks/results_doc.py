@@ -564,6 +564,23 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "results/weaves_1160/field --candidate axes_harmonic --name period_axes_harmonic (RUN prepared "
                         "with config/overlays/period_axes.yaml, the default until then, CANDIDATE_RUN with "
                         "the default since (axes_harmonic); the commands are in config/overlays/period_axes.yaml)"),
+        BenchmarkReport("A higher harmonic stepped down where the photo shows no yarn axes, screening",
+                        ("bench/period_fundamental_screening.md",),
+                        f"{py}/period_axes.py --native results/microscope_1152/field results/microscope_1153/field "
+                        "results/microscope_1156/field results/weaves_1154/field results/weaves_1155/field "
+                        "results/weaves_1157/field --peaks axes_harmonic axes_fundamental "
+                        "--name period_fundamental_screening"),
+        BenchmarkReport("A higher harmonic stepped down where the photo shows no yarn axes, confirmation",
+                        ("bench/period_fundamental_confirmation.md",),
+                        f"{py}/period_axes.py --native results/microscope_1159/field results/weaves_1160/field --peaks "
+                        "axes_harmonic axes_fundamental --name period_fundamental_confirmation"),
+        BenchmarkReport("A higher harmonic stepped down where the photo shows no yarn axes, confirmation with the proxy",
+                        ("bench/period_fundamental.md",),
+                        f"{py}/period_axes.py --set results/microscope_1159/run_axes_harmonic "
+                        "results/microscope_1159/run_axes_fundamental results/microscope_1159/field --set "
+                        "results/weaves_1160/run_axes_harmonic results/weaves_1160/run_axes_fundamental "
+                        "results/weaves_1160/field --candidate axes_fundamental --name period_fundamental (the "
+                        "commands are in config/overlays/period_axes_harmonic.yaml)"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "
