@@ -148,13 +148,13 @@ def workflow_runs(results: Path) -> list[Run]:
                    f"--config samples={r}/{folder}/{images}/samples.tsv results={r}/{folder}/run")
         return Run(label, results / folder / "run", results / folder / images / "samples.tsv", command)
 
-    def fitted_field_run(label: str, folder: str) -> Run:
+    def fitted_field_run(label: str, folder: str, run: str = "run_axes") -> Run:
         """A field set rendered by ``config/overlays/<folder>.yaml`` (whose ``run`` holds only the photo's features)
-        run whole, fits included, with the current defaults into ``results/<folder>/run_axes``."""
+        run whole, fits included, with the defaults of its day into ``results/<folder>/<run>``."""
         command = (f".venv/bin/snakemake --cores 2 field_set --configfile config/config.yaml config/overlays/{folder}.yaml "
                    f"&& .venv/bin/snakemake --cores 2 --config samples={r}/{folder}/field/samples.tsv "
-                   f"results={r}/{folder}/run_axes")
-        return Run(label, results / folder / "run_axes", results / folder / "field" / "samples.tsv", command)
+                   f"results={r}/{folder}/{run}")
+        return Run(label, results / folder / run, results / folder / "field" / "samples.tsv", command)
 
     return [
         Run("design", results, default_sheet, design),
@@ -186,6 +186,8 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1158", "holdout_1158", "holdout"),
         fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
+        fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
+        fitted_field_run("three weaves 1160, fitted", "weaves_1160", "run_axes_harmonic"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]

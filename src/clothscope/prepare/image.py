@@ -47,7 +47,7 @@ PREVIEW_FILE = "preview.png"
 #: power times frequency (a colour repeat many threads long then loses to the threads it is woven from), or that
 #: one among the peaks along the yarn axes when the photo shows them (a weave repeat then loses too), or that, with a
 #: (1, 1) harmonic stepped down to the threads when the photo shows no yarn axes (round, ring-lit crossings), or that,
-#: with a higher harmonic of the threads stepped down to them (a sharp rib or float edge under a ring light)
+#: with a higher harmonic of the threads stepped down to them there too (a sharp rib or float edge under a ring light)
 PERIOD_PEAKS = ("weighted", "strongest", "axes", "axes_harmonic", "axes_fundamental")
 #: the yarn axes count when the 4-fold moment of the gradient orientations is at least this (:func:`yarn_axes`)
 AXES_MIN_STRENGTH = 0.1
@@ -183,6 +183,9 @@ def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str, axes: YarnAxes 
     ``axes``; when the axes do not restrict the pick, a (1, 1) harmonic is
     stepped down to the threads (:func:`threads_below_harmonic`): round, ring-lit
     crossings show no yarn axes, and their (1, 1) harmonic can win.
+    ``axes_fundamental``: as ``axes_harmonic``, and then a 2nd to 4th harmonic
+    of the threads is stepped down to them (:func:`fundamental_below`), when the
+    axes do not restrict the pick either.
 
     Raises
     ------
