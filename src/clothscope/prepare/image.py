@@ -196,8 +196,7 @@ def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str, axes: YarnAxes 
     if len(peaks) == 0:
         raise ValueError("no lattice peaks to choose the period from")
     peaks = np.asarray(peaks)
-    radii = np.array([refined_radius(s, int(k)) for k in peaks])
-    power = s.smoothed.flat[peaks]
+    radii, power = radii_and_power(s, peaks)
     score = power if peak == "strongest" else power * radii
     if peak in ("axes", "axes_harmonic", "axes_fundamental"):
         if axes is None:
@@ -205,10 +204,9 @@ def period_peak_index(s: Spectrum, peaks: np.ndarray, peak: str, axes: YarnAxes 
         aligned = along_axes(s, peaks, axes)
         if axes.strength >= AXES_MIN_STRENGTH and aligned.any():
             return int(np.argmax(np.where(aligned, score, -np.inf)))
-        if peak == "axes_harmonic":
-            return threads_below_harmonic(s, peaks, int(np.argmax(score)))
-        if peak == "axes_fundamental":
-            return fundamental_below(s, peaks, threads_below_harmonic(s, peaks, int(np.argmax(score))))
+        if peak in ("axes_harmonic", "axes_fundamental"):
+            pick = threads_below_harmonic(s, peaks, int(np.argmax(score)))
+            return fundamental_below(s, peaks, pick) if peak == "axes_fundamental" else pick
     return int(np.argmax(score))
 
 
@@ -224,8 +222,7 @@ def fundamental_below(s: Spectrum, peaks: np.ndarray, pick: int) -> int:
     the most powerful is taken.
     """
     peaks = np.asarray(peaks)
-    radii = np.array([refined_radius(s, int(k)) for k in peaks])
-    power = s.smoothed.flat[peaks]
+    radii, power = radii_and_power(s, peaks)
     turn = undirected_turn(s, peaks, pick)
     near = np.zeros(len(peaks), dtype=bool)
     for m in FUNDAMENTAL_ORDERS:
@@ -233,6 +230,11 @@ def fundamental_below(s: Spectrum, peaks: np.ndarray, pick: int) -> int:
     near &= (turn < np.deg2rad(HARMONIC_ANGLE_TOLERANCE_DEG)) & (power >= power[pick])
     near[pick] = False
     return int(np.flatnonzero(near)[np.argmax(power[near])]) if near.any() else pick
+
+
+def radii_and_power(s: Spectrum, peaks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Refined radius (bins) and smoothed power of each of ``peaks``."""
+    return np.array([refined_radius(s, int(k)) for k in peaks]), s.smoothed.flat[peaks]
 
 
 def undirected_turn(s: Spectrum, peaks: np.ndarray, pick: int) -> np.ndarray:
@@ -252,8 +254,7 @@ def threads_below_harmonic(s: Spectrum, peaks: np.ndarray, pick: int, min_power:
     threads, which only the power ratio tells apart.
     """
     peaks = np.asarray(peaks)
-    radii = np.array([refined_radius(s, int(k)) for k in peaks])
-    power = s.smoothed.flat[peaks]
+    radii, power = radii_and_power(s, peaks)
     turn = undirected_turn(s, peaks, pick)
     near = ((np.abs(radii / (radii[pick] / np.sqrt(2)) - 1) < HARMONIC_RADIUS_TOLERANCE)
             & (np.abs(turn - np.pi / 4) < np.deg2rad(HARMONIC_ANGLE_TOLERANCE_DEG)))
