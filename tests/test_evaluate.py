@@ -12,6 +12,7 @@ from clothscope.evaluate.accuracy import (
     period_error,
     seen_scale,
     summarise,
+    window_seen_scale,
 )
 from clothscope.fit.model import FitCamera, plane_grid
 
@@ -55,6 +56,15 @@ def test_seen_scale_follows_the_depth_the_cloth_is_seen_at():
     assert seen_scale({"camera": truth_camera(), "folds": [wide]}) == pytest.approx(3.0 / 2.85, rel=2e-3)
     lowered = {"camera": truth_camera(), "folds": [wide | {"amplitude": -0.15}]}
     assert seen_scale(lowered) == pytest.approx(3.0 / 3.15, rel=2e-3)
+
+
+def test_a_centred_window_sees_the_depth_of_the_centre_not_the_frames_mean():
+    ridge = {"amplitude": 0.3, "width": 0.05, "angle_deg": 0.0, "centre": 0.0}  # lifts a narrow band through the centre
+    truth = {"camera": truth_camera() | {"resolution": 1024}, "folds": [ridge]}
+    centre = window_seen_scale(truth, 64)  # 1/16 of the frame: well inside the ridge's crest
+    assert centre == pytest.approx(3.0 / 2.7, rel=0.01)
+    assert seen_scale(truth) < 1.05 < centre
+    assert window_seen_scale(truth, 1024) == window_seen_scale(truth, 4096) == pytest.approx(seen_scale(truth))
 
 
 def test_the_truth_is_put_in_the_frame_prepare_cropped_and_scaled():

@@ -12,7 +12,8 @@ import period_axes as pa  # noqa: E402
 
 
 def test_a_period_counts_when_within_five_percent_of_the_truth_as_seen(tmp_path, monkeypatch):
-    monkeypatch.setattr(pa, "seen_scale", lambda record: 1.1)  # the folds bring the cloth 10% nearer
+    windows = []
+    monkeypatch.setattr(pa, "window_seen_scale", lambda record, window: windows.append(window) or 1.1)  # 10% nearer
     truth = tmp_path / "truth" / "twill"
     truth.mkdir(parents=True)
     for image_id, periodic in (("a", True), ("b", True), ("c", True), ("d", False)):
@@ -21,10 +22,12 @@ def test_a_period_counts_when_within_five_percent_of_the_truth_as_seen(tmp_path,
     run = tmp_path / "run"
     for image_id, period in (("a", 11.3), ("b", 31.1), ("d", 5.0)):  # c: never prepared
         (run / "prepared" / image_id).mkdir(parents=True)
-        (run / "prepared" / image_id / "status.json").write_text(json.dumps({"scale": {"native_period_px": period}}))
+        status = {"scale": {"native_period_px": period}, "settings": {"period_window": 512} if image_id == "b" else {}}
+        (run / "prepared" / image_id / "status.json").write_text(json.dumps(status))
     records = pa.truth_records(tmp_path / "truth")
     assert sorted(records) == ["a", "b", "c"]
-    ratios = pa.recorded_ratios(run, records)
+    ratios = pa.recorded_ratios(run, records, 1024)
+    assert windows == [1024, 512, 1024]  # the window each period was read on: b's status names its own
     assert pa.periods_within(ratios) == 1  # a: 11.3 against 11.0; b: a twill rib; c: no status
     assert pa.periods_too_long(ratios) == 1  # b: 31.1 against 11.0
 

@@ -7,8 +7,9 @@
 Reads each image's truth record (the generator's draws and render seconds) and, where the
 workflow has run on the set, the period ``prepare`` measured at native resolution
 (``prepared/<id>/status.json``, ``scale.native_period_px``) against the true period as seen
-(the nominal period times :func:`clothscope.evaluate.accuracy.seen_scale`, the mean magnification the
-folds give; knits: wale or course, whichever is closer). The period is also measured here on the luminance and on the shading with the yarn
+in the centred ``prepare.period_window`` it is read on (the nominal period times
+:func:`clothscope.evaluate.accuracy.window_seen_scale`, the mean magnification the folds give there; knits: wale
+or course, whichever is closer). The period is also measured here on the luminance and on the shading with the yarn
 colours divided out (``prepare.period_field``), taking the strongest peak or the one with the most
 power times frequency (``prepare.period_peak``). Writes ``results/bench/<name>.{csv,md}`` and
 ``<name>.jpg``, the centred 512 px of every image, one row per class.
@@ -33,7 +34,7 @@ from clothscope.core.atomic import write_with
 from clothscope.core.config import schema_defaults
 from clothscope.core.imageio import decode_image
 from clothscope.core.truth import truth_paths
-from clothscope.evaluate.accuracy import seen_scale
+from clothscope.evaluate.accuracy import window_seen_scale
 from clothscope.features.structure import StructureSettings
 from clothscope.prepare.image import STATUS_FILE, native_period
 
@@ -55,12 +56,13 @@ DECODE = tuple(schema_defaults()["prepare"][k] for k in ("min_input_px", "max_me
 def image_rows(field: Path, run: Path) -> pd.DataFrame:
     """One row per field image: its draws, render time and (when prepared) the measured native period."""
     rows = []
-    lattice = StructureSettings(**validated_config()["features"]["structure"])
+    config = validated_config()
+    lattice, window = StructureSettings(**config["features"]["structure"]), config["prepare"]["period_window"]
     for path in sorted(field.glob("*/*.jpg")):
         image_id = path.stem
         truth = json.loads(truth_paths(path)["json"].read_text(encoding="utf-8"))
         draw = truth["draw"]
-        seen = seen_scale(truth)  # folds bring the cloth nearer or farther than the nominal plane
+        seen = window_seen_scale(truth, window)  # folds bring the cloth nearer or farther than the nominal plane
         periods = [p * seen for p in (truth["thread_period_px"], truth["course_period_px"]) if p]
         status = run / "prepared" / image_id / STATUS_FILE
         measured = json.loads(status.read_text())["scale"].get("native_period_px") if status.is_file() else None
@@ -69,7 +71,7 @@ def image_rows(field: Path, run: Path) -> pd.DataFrame:
         by_field = {}
         if periods:
             rgb = decode_image(path, *DECODE).rgb
-            by_field = {f"{name}_{peak}": period_ratio(native_period(rgb, 1024, lattice, name, peak), periods)
+            by_field = {f"{name}_{peak}": period_ratio(native_period(rgb, window, lattice, name, peak), periods)
                         for name, peak in MEASURED}
         rows.append({"image_id": image_id, "fabric_class": truth["fabric_class"], "weave": draw["weave_variant"],
                      "capture": draw["capture"], "resolution": draw["resolution"], "fov_deg": draw["fov_deg"],

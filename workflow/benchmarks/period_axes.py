@@ -11,7 +11,8 @@ the candidate pick (``CANDIDATE_RUN``, named by ``--candidate``; ``RUN`` prepare
 (``TRUTH/<class>/<id>.*`` beside ``<id>.truth.json``). Per set and run:
 
 - the periodic photos whose recorded native period (``scale.native_period_px`` of ``prepared/<id>/status.json``)
-  lies within 5% of the truth as seen (:func:`clothscope.evaluate.accuracy.seen_scale`; the closer of the thread
+  lies within 5% of the truth as seen in the window it was read on (the nominal period times
+  :func:`clothscope.evaluate.accuracy.window_seen_scale` over ``prepare.period_window``; the closer of the thread
   and course periods);
 - the classifier of record's proxy on the run's photo tables: LOOCV with the column set chosen inside each fold among
   the photo's sets, each image scored as the config's ``classify.test_tiles`` says (``held_out_tiles.py``'s
@@ -36,7 +37,7 @@ from harness import ROOT, publish, record_loocv, shown, validated_config
 from held_out_tiles import scored_lists
 
 from clothscope.core.imageio import decode_image
-from clothscope.evaluate.accuracy import seen_scale
+from clothscope.evaluate.accuracy import window_seen_scale
 from clothscope.features.structure import StructureSettings
 from clothscope.prepare.image import PERIOD_PEAKS, STATUS_FILE, lattice_period, native_lattice
 
@@ -58,25 +59,30 @@ def truth_records(truth: Path) -> dict[str, dict]:
 TOO_LONG = 1.3
 
 
-def seen_ratio(measured: float | None, record: dict) -> float | None:
-    """A native period over the truth as seen (the closer of the thread and course periods); None without one."""
-    seen = seen_scale(record)
+def seen_ratio(measured: float | None, record: dict, window: int) -> float | None:
+    """A native period read on the centred ``window`` over the truth as seen there (the closer of the thread and
+    course periods); None without one."""
+    seen = window_seen_scale(record, window)
     return period_ratio(measured, [p * seen for p in (record.get("thread_period_px"), record.get("course_period_px")) if p])
 
 
-def is_within(measured: float | None, record: dict) -> bool:
-    """Whether a native period lies within :data:`TOLERANCE` of the truth as seen (thread or course period)."""
-    ratio = seen_ratio(measured, record)
+def is_within(measured: float | None, record: dict, window: int) -> bool:
+    """Whether a native period read on ``window`` lies within :data:`TOLERANCE` of the truth as seen (:func:`seen_ratio`)."""
+    ratio = seen_ratio(measured, record, window)
     return ratio is not None and abs(ratio - 1) <= TOLERANCE
 
 
-def recorded_ratios(run: Path, records: dict[str, dict]) -> list[float | None]:
-    """Per periodic photo, the period ``prepare`` recorded in ``run`` over the truth as seen (None: none recorded)."""
+def recorded_ratios(run: Path, records: dict[str, dict], window: int) -> list[float | None]:
+    """Per periodic photo, the period ``prepare`` recorded in ``run`` over the truth as seen (None: none recorded).
+
+    The period was read on the status's ``settings.period_window``, or ``window`` where the status does not say.
+    """
     ratios = []
     for image_id, record in records.items():
-        status = run / "prepared" / image_id / STATUS_FILE
-        scale = (json.loads(status.read_text(encoding="utf-8")).get("scale") or {}) if status.is_file() else {}
-        ratios.append(seen_ratio(scale.get("native_period_px"), record))
+        path = run / "prepared" / image_id / STATUS_FILE
+        status = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
+        read_on = (status.get("settings") or {}).get("period_window", window)
+        ratios.append(seen_ratio((status.get("scale") or {}).get("native_period_px"), record, read_on))
     return ratios
 
 
@@ -103,7 +109,7 @@ def native_rows(field: Path, peaks: list[str]) -> dict:
         native = native_lattice(decode_image(path, *DECODE).rgb, prepare["period_window"], lattice, prepare["period_field"])
         row["periodic"] += 1
         for peak in peaks:
-            row[peak] += is_within(lattice_period(native, peak), record)
+            row[peak] += is_within(lattice_period(native, peak), record, prepare["period_window"])
     return row
 
 
@@ -118,10 +124,11 @@ def set_rows(runs: tuple[Path, Path], truth: Path) -> list[dict]:
     """One row per run of a set: its periods within 5% and its proxy's images right."""
     records = truth_records(truth)
     settings = classify_config()
+    window = validated_config()["prepare"]["period_window"]
     rows = []
     for label, run in zip(RUNS, runs):
         correct, n = proxy_correct(run, settings)
-        ratios = recorded_ratios(run, records)
+        ratios = recorded_ratios(run, records, window)
         rows.append({"set": shown(runs[0]), "run": label, "folder": shown(run), "periodic": len(records),
                      "period_within_5pct": periods_within(ratios),
                      "period_too_long": periods_too_long(ratios), "proxy_correct": correct, "images": n})
@@ -131,7 +138,8 @@ def set_rows(runs: tuple[Path, Path], truth: Path) -> list[dict]:
 def markdown(table: pd.DataFrame, candidate: str) -> str:
     """Per set, both runs' periods within 5% and read too long, and proxy images right; then summed."""
     values = ["period_within_5pct", "period_too_long", "proxy_correct"]
-    lines = ["Periodic photos whose `prepare` period lies within 5% of the truth as seen or is read at least "
+    lines = ["Periodic photos whose `prepare` period lies within 5% of the truth as seen in the window it was read on, "
+             "or is read at least "
              f"{TOO_LONG:g} times too long, and images right by the "
              "classifier of record's proxy (the photo's sets chosen inside each fold, scored as `classify.test_tiles` "
              f"says), with the run's period pick and with `{candidate}`.", "",
@@ -152,7 +160,7 @@ def native_markdown(table: pd.DataFrame, peaks: list[str]) -> str:
     """Per field folder, periodic photos and those each pick reads within 5%; then summed."""
     prepare = validated_config()["prepare"]
     lines = [f"Periodic photos whose native period (centred {prepare['period_window']} px, {prepare['period_field']}, "
-             "as `prepare` reads it) lies within 5% of the truth as seen, with each lattice peak pick "
+             "as `prepare` reads it) lies within 5% of the truth as seen in that window, with each lattice peak pick "
              "(`prepare.period_peak`; `weighted`: the peak of most power times frequency, `axes`: that peak among those "
              "along the yarn axes, `axes_harmonic`: that, with a (1, 1) harmonic stepped down to the threads where the "
              "photo shows no yarn axes, `axes_fundamental`: that, with a 2nd to 4th harmonic of the threads stepped down to "

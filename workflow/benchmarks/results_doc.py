@@ -583,6 +583,13 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "results/weaves_1160/run_axes_harmonic results/weaves_1160/run_axes_fundamental "
                         "results/weaves_1160/field --candidate axes_fundamental --name period_fundamental (the "
                         "commands are in config/overlays/period_axes_harmonic.yaml)"),
+        BenchmarkReport("The thread period against the truth in its window, the eight capture sets",
+                        ("bench/period_truth_window.md",),
+                        f"{py}/period_axes.py --native results/microscope_1152/field results/microscope_1153/field "
+                        "results/microscope_1156/field results/weaves_1154/field results/weaves_1155/field "
+                        "results/weaves_1157/field results/microscope_1159/field results/weaves_1160/field --peaks "
+                        "axes_harmonic axes_fundamental --name period_truth_window (the sections above compare with "
+                        "the whole frame's magnification; see design.md)"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "

@@ -138,6 +138,16 @@ def seen_scale(truth: dict[str, Any], resolution: int = 64) -> float:
     return float(np.mean(np.linalg.norm(origin - np.array(truth["camera"]["target"])) / depth))
 
 
+def window_seen_scale(truth: dict[str, Any], window_px: int) -> float:
+    """:func:`seen_scale` over the centred ``window_px`` square of the native frame (the whole frame when larger).
+
+    A period read on a centred window sees the cloth at the window's depth, not
+    at the whole frame's: close up, folds change the magnification across the frame.
+    """
+    side = int(truth.get("image_resolution") or truth["camera"]["resolution"])
+    return seen_scale(in_working_frame(truth, {"crop_px": min(int(window_px), side)}, side))
+
+
 def period_error(fitted_period_px: float | None, truth: dict[str, Any], scale: float = 1.0) -> float | None:
     """Relative error of a fitted thread period against the true one (knits: wale or course, the closer).
 
