@@ -188,6 +188,7 @@ def workflow_runs(results: Path) -> list[Run]:
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
         fitted_field_run("three weaves 1160, fitted", "weaves_1160", "run_axes_harmonic"),
+        fitted_field_run("three weaves 1161, fitted", "weaves_1161", "run"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -590,6 +591,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "results/weaves_1157/field results/microscope_1159/field results/weaves_1160/field --peaks "
                         "axes_harmonic axes_fundamental --name period_truth_window (the sections above compare with "
                         "the whole frame's magnification; see design.md)"),
+        BenchmarkReport("The thread period against the truth in its window, a fresh three-weave set",
+                        ("bench/period_truth_window_1161.md",),
+                        f"{py}/period_axes.py --native results/weaves_1161/field --peaks axes_harmonic axes_fundamental "
+                        "--name period_truth_window_1161 (seed 20261161, rendered after the yardstick was chosen)"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "
