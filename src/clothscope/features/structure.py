@@ -223,7 +223,7 @@ def radial_profile(s: Spectrum, f0: float) -> np.ndarray:
     return np.log10(np.asarray(shares) + 1e-6)
 
 
-def _folded(delta: np.ndarray | float) -> np.ndarray | float:
+def folded_angle(delta: np.ndarray | float) -> np.ndarray | float:
     """Angle between undirected directions (radians), folded to [0, pi/2]."""
     return np.abs((delta + np.pi / 2) % np.pi - np.pi / 2)
 
@@ -234,7 +234,7 @@ def _direction(s: Spectrum, index: int) -> float:
 
 def _angle_between(s: Spectrum, a: int, b: int) -> float:
     """Angle between two peaks' directions, folded to [0, pi/2]."""
-    return float(_folded(_direction(s, b) - _direction(s, a)))
+    return float(folded_angle(_direction(s, b) - _direction(s, a)))
 
 
 def lattice_features(s: Spectrum, lattice: Lattice) -> dict[str, float]:
@@ -280,7 +280,7 @@ def sector_shares(s: Spectrum, lattice: Lattice) -> dict[str, float]:
     else:
         sectors = np.bincount(((angles % np.pi) / np.pi * 36).astype(int) % 36, weights=power, minlength=36)
         reference = (int(np.argmax(sectors)) + 0.5) * np.pi / 36
-    folded = _folded(angles - reference)
+    folded = folded_angle(angles - reference)
     return {"s_sector_parallel": float(power[folded < np.radians(22.5)].sum() / total),
             "s_sector_diagonal": float(power[(folded >= np.radians(22.5)) & (folded <= np.radians(67.5))].sum() / total),
             "s_sector_across": float(power[folded > np.radians(67.5)].sum() / total)}

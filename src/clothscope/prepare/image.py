@@ -34,6 +34,7 @@ from clothscope.features.structure import (
     StructureSettings,
     analysis_field,
     find_lattice,
+    folded_angle,
     refined_radius,
     spectrum,
 )
@@ -240,7 +241,7 @@ def radii_and_power(s: Spectrum, peaks: np.ndarray) -> tuple[np.ndarray, np.ndar
 def undirected_turn(s: Spectrum, peaks: np.ndarray, pick: int) -> np.ndarray:
     """Angle (radians, in [0, pi/2]) between each peak's direction and the pick's, up to sign."""
     direction = np.arctan2(s.dy.flat[peaks], s.dx.flat[peaks])
-    return np.abs((direction - direction[pick] + np.pi / 2) % np.pi - np.pi / 2)
+    return folded_angle(direction - direction[pick])
 
 
 def threads_below_harmonic(s: Spectrum, peaks: np.ndarray, pick: int, min_power: float = HARMONIC_MIN_POWER) -> int:
