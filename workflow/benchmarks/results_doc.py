@@ -184,11 +184,13 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("microscope-like weaves 1150", "microscope_1150", "field"),
         rendered_run("held-out 1151", "holdout_1151", "holdout"),
         rendered_run("held-out 1158", "holdout_1158", "holdout"),
+        rendered_run("held-out 1162", "holdout_1162", "holdout"),
         fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
         fitted_field_run("three weaves 1160, fitted", "weaves_1160", "run_axes_harmonic"),
         fitted_field_run("three weaves 1161, fitted", "weaves_1161", "run"),
+        fitted_field_run("three weaves 1163, fitted", "weaves_1163", "run"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -701,8 +703,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/pooled_captures.py"),
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
         BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
-        BenchmarkReport("Classifier of record on the paper's class subsets", ("bench/class_subsets.md",),
-                        f"{py}/class_subsets.py --holdout results/holdout_1158/run"),
+        BenchmarkReport("The paper's class subsets: the classifier of record, the fitted maps alone, the photo alone",
+                        ("bench/class_subsets.md",), f"{py}/class_subsets.py --holdout results/holdout_1162/run"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all"),
         BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),
@@ -745,6 +747,16 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The normal-map step on the same evening: the machine's speed", ("bench/backward_pass_1128.md",),
                         f"{py}/backward_pass.py --ways direct --name backward_pass_1128 (run alone, right after "
                         "fit_speed_quiet)"),
+        BenchmarkReport("Fit time per image, 2026-11-29 morning", ("bench/fit_speed_1129/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants default,fast --out results/bench/fit_speed_1129 (run alone, right "
+                        "after the design run)"),
+        BenchmarkReport("Fit time per image on field photos, prepare included, 2026-11-29 morning",
+                        ("bench/fit_speed_field_1129/fit_speed.md",),
+                        f"{py}/fit_speed.py --sheet results/weaves_1163/field/samples.tsv --prepare --variants default "
+                        f"--rounds 1 --images {FIELD_TIMED} --out results/bench/fit_speed_field_1129 (run alone)"),
+        BenchmarkReport("The normal-map step on the same morning: the machine's speed", ("bench/backward_pass_s17.md",),
+                        f"{py}/backward_pass.py --ways direct --name backward_pass_s17 (run alone, right after "
+                        "fit_speed_1129)"),
         BenchmarkReport("Run-to-run noise and the lean fit", ("bench/run_figures/run_figures.md",),
                         f"{py}/run_figures.py results results/exp_seed/design results/exp_lean/design results/holdout/run "
                         "results/exp_lean/holdout results/holdout_confirm/run results/exp_seed/confirm results/exp_lean/confirm "
