@@ -597,6 +597,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/period_truth_window_1161.md",),
                         f"{py}/period_axes.py --native results/weaves_1161/field --peaks axes_harmonic axes_fundamental "
                         "--name period_truth_window_1161 (seed 20261161, rendered after the yardstick was chosen)"),
+        BenchmarkReport("The thread period against the truth in its window, a second fresh three-weave set",
+                        ("bench/period_truth_window_1163.md",),
+                        f"{py}/period_axes.py --native results/weaves_1163/field --peaks axes_fundamental "
+                        "--name period_truth_window_1163 (seed 20261163, seventeenth session)"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "
