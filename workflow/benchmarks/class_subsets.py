@@ -92,7 +92,7 @@ def report(frame: pd.DataFrame, settings: dict) -> str:
              "| set | experiment | classifier of record | 95% Wilson | chance | folds chose | auto_fitted | auto_photo |",
              "|---|---|---|---|---|---|---|---|"]
     for row in frame.itertuples():
-        lines.append(f"| {row.set} | {row.experiment} | {100 * row.accuracy:.1f}% ({row.correct}/{row.n}) | "
+        lines.append(f"| {row.set} | {row.experiment} | {_cell(row.accuracy, row.correct, row.n)} | "
                      f"{100 * row.wilson_low:.1f}-{100 * row.wilson_high:.1f}% | {100 * row.chance:.1f}% | {row.folds_chose} | "
                      f"{_cell(row.auto_fitted_accuracy, row.auto_fitted_correct, row.auto_fitted_n)} | "
                      f"{_cell(row.auto_photo_accuracy, row.auto_photo_correct, row.auto_photo_n)} |")
