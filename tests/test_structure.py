@@ -11,6 +11,7 @@ from scipy import ndimage
 
 from clothscope.classify.feature_sets import (
     FEATURE_SETS,
+    brdf_line,
     compare_feature_sets,
     group_columns,
     inverse_rendering_gain,
@@ -331,6 +332,18 @@ def test_feature_sets_compare_on_the_same_images_and_say_what_the_fit_bought():
     assert "against the best photo" in report_markdown(report, line, list(tables), "discriminant")
 
 
+def test_brdf_line_counts_what_the_fitted_brdf_adds_to_the_photo_structure_on_the_same_images():
+    report = pd.DataFrame([{"feature_set": "structure_photo", "status": "ok", "correct": 38, "n": 42},
+                           {"feature_set": "photo_plus_brdf", "status": "ok", "correct": 41, "n": 42}])
+    line = brdf_line(report)
+    assert line == ("The fitted BRDF beside the photo's structure descriptor: photo_plus_brdf 41/42 against "
+                    "structure_photo 38 (+3 images).")
+    assert line in report_markdown(report.assign(description="", n_features=1, accuracy=0.9, wilson_low=0.8,
+                                                 wilson_high=0.95, chance=0.1, reason=""), "gain", ["fitted", "photo"], "none")
+    assert brdf_line(report.iloc[:1]) == ""  # a classifier without fitted maps has no such set
+    assert brdf_line(report.assign(status=["ok", "not scored"])) == ""
+
+
 def _report(**accuracy: float) -> pd.DataFrame:
     return pd.DataFrame([{"feature_set": name, "status": "ok", "accuracy": value, "photo_only": name.endswith("_photo")}
                          for name, value in accuracy.items()])
@@ -409,8 +422,9 @@ def test_joined_table_marks_an_image_unusable_when_any_source_fails():
     assert "fitted.s_prof_1" in joined and "photo.s_prof_1" in joined
     sets = classifier_candidates("auto", "fitted", joined.columns)
     assert set(sets) == {"structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf", "texture_shade_brdf", "photo_structure", "plus_photo",
-                         "photo_profile", "photo_paper", "photo_lbp", "photo_texture"}
+                         "photo_profile", "photo_paper", "photo_lbp", "photo_texture", "photo_structure_brdf"}
     assert sets["plus_photo"] == sets["structure_brdf"] + sets["photo_structure"]
+    assert sets["photo_structure_brdf"] == sets["photo_structure"] + ["fitted.roughness", "fitted.specular_norm"]
     assert all(c.startswith("photo.") for name in ("photo_profile", "photo_paper", "photo_lbp", "photo_texture") for c in sets[name])
     assert sets["photo_texture"] == sets["photo_structure"] + sets["photo_lbp"]
     assert sets["photo_profile"] == [f"photo.s_prof_{k}" for k in range(1, 11) if f"photo.s_prof_{k}" in joined]

@@ -21,12 +21,13 @@ with the photo beside them), choose their columns on those other images as the
 Needs the main run's ``fitted`` and ``photo`` feature tables.
 
     .venv/bin/python workflow/benchmarks/invariance_fitted.py [--images a,b|all] [--out results/bench/invariance] [--features-only]
-        [--overlay config/overlays/NAME.yaml]
+        [--overlay config/overlays/NAME.yaml] [--prefer SET ...]
 
 ``--features-only`` reuses the run folder's fits and recomputes only the
 feature rows (after a change to the features, not to the fit). ``--overlay``
 runs the transformed photos with that config overlay (the main run's feature
-tables, which train the models, must have been made with it too).
+tables, which train the models, must have been made with it too). ``--prefer SET ...`` adds rows for the record
+with each of those ``classify.choice.prefer`` values.
 
 Writes ``<out>/invariance_fitted.csv`` (one row per feature set and
 transformation) and ``<out>/invariance_fitted.md``.
@@ -39,6 +40,7 @@ from pathlib import Path
 import pandas as pd
 from class_subsets import classify_config
 from harness import ROOT, publish, run_tables, snakemake, write_sheet
+from record_candidates import PREFER_CHOICES
 
 from clothscope.classify.feature_sets import (
     FEATURE_SETS,
@@ -59,7 +61,7 @@ PAIRS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "chiffon"
                  for d in ("red", "navy"))
 #: feature sets whose invariance is measured (the sources both exist for transformed photos)
 SETS = ("record", "auto_fitted", "texture_brdf_fitted", "structure_brdf_fitted", "paper_fitted", "auto_photo", "lbp_photo",
-        "structure_photo")
+        "structure_photo", "photo_plus_brdf")
 #: the feature set standing for the classifier of record's sources (fitted maps, the photo beside them)
 RECORD_SOURCES = "fitted_plus_photo"
 
@@ -130,6 +132,8 @@ def main() -> int:
     parser.add_argument("--out", default="results/bench/invariance")
     parser.add_argument("--features-only", action="store_true", help="reuse the run's fits; recompute the feature rows")
     parser.add_argument("--overlay", help="config overlay for the transformed photos' run (as the main run's)")
+    parser.add_argument("--prefer", nargs="+", default=[], choices=PREFER_CHOICES,
+                        help="also score the record with each of these classify.choice.prefer values")
     args = parser.parse_args()
     settings = classify_config()
     out = (ROOT / args.out).resolve()
@@ -143,14 +147,20 @@ def main() -> int:
     originals, tiles = run_tables(ROOT / "results")
     transformed, transformed_tiles = run_tables(run)
     images = list(sheet["image_id"])
-    table = pd.DataFrame([changed_predictions(f, originals, transformed, images, t, settings, tiles, transformed_tiles)
-                          for f in SETS for t in PHOTO_TRANSFORMS])
+    rows = [changed_predictions(f, originals, transformed, images, t, settings, tiles, transformed_tiles)
+            for f in SETS for t in PHOTO_TRANSFORMS]
+    for prefer in args.prefer:
+        preferring = {**settings, "choice": {**settings["choice"], "prefer": prefer}}
+        rows += [{**changed_predictions("record", originals, transformed, images, t, preferring, tiles, transformed_tiles),
+                  "feature_set": f"record, prefer {prefer}"} for t in PHOTO_TRANSFORMS]
+    table = pd.DataFrame(rows)
     lines = ["# Invariance of predictions to the photo's rotation, zoom and colour (refitted)", "",
              f"{len(images)} images x {len(PHOTO_TRANSFORMS)} transformations, prepared, fitted and described by the "
              f"workflow in {seconds / 60:.1f} min (2 cores{', fits reused' if args.features_only else ''}"
              f"{f', overlay `{args.overlay}`' if args.overlay else ''}). "
              f"Classifier: QDA, subspace `{settings['subspace']}`, shrinkage `{settings['reg']}`; `record` is "
-             f"`{settings['feature_set']}` on fitted maps with the photo beside them. Changed: the model trained on every other original image "
+             f"`{settings['feature_set']}` on fitted maps with the photo beside them (preferred set "
+             f"`{settings['choice']['prefer']}`, or the one named). Changed: the model trained on every other original image "
              "predicts another class for the transformed photo than for the original. rotate30 keeps the valid centre, "
              "which the prepare stage resizes, so it also magnifies by 1.41.", "",
              "| feature set | transform | changed | rate | wrong after |", "|---|---|---|---|---|"]

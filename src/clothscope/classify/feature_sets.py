@@ -120,6 +120,8 @@ FEATURE_SETS = (
     FeatureSet("lbp_photo", "uniform LBP histograms (8/1, 16/2, 24/3) of the photo's luminance", (("photo", "lbp"),)),
     FeatureSet("fitted_plus_photo", "structure + BRDF from the fit, with the photo's structure descriptor",
                (("fitted", "structure_brdf"), ("photo", "structure"))),
+    FeatureSet("photo_plus_brdf", "the photo's structure descriptor with the fitted BRDF (roughness, specular)",
+               (("photo", "structure"), ("fitted", "brdf"))),
     FeatureSet("auto_fitted", "chosen inside each fold among structure+BRDF, profile+BRDF, paper, LBP, texture+BRDF and texture+shade+BRDF on fitted maps",
                (("fitted", "auto"),)),
     FeatureSet("auto_photo", "chosen inside each fold among the same sets on the photo", (("photo", "auto"),)),
@@ -268,6 +270,17 @@ def inverse_rendering_gain(report: pd.DataFrame, fitted_set: str) -> str:
             f"{100 * float(best['accuracy']):.1f}% (LOOCV, same {int(best['n'])} images){paired_clause(fitted.iloc[0])}.")
 
 
+def brdf_line(report: pd.DataFrame) -> str:
+    """One line: what the fitted BRDF adds to the photo's structure descriptor (``photo_plus_brdf`` against
+    ``structure_photo``, images right of the same images), or ``""`` where either was not scored."""
+    scored = report[report["status"] == "ok"].set_index("feature_set")
+    if not {"photo_plus_brdf", "structure_photo"} <= set(scored.index):
+        return ""
+    with_brdf, without = (int(scored.at[name, "correct"]) for name in ("photo_plus_brdf", "structure_photo"))
+    return (f"The fitted BRDF beside the photo's structure descriptor: photo_plus_brdf {with_brdf}/{int(scored.at['photo_plus_brdf', 'n'])} "
+            f"against structure_photo {without} ({with_brdf - without:+d} images).")
+
+
 def relief_line(report: pd.DataFrame, fitted_set: str) -> str:
     """One line, where ground truth was scored: the fitted set against the true relief, or ``""``.
 
@@ -323,12 +336,14 @@ def _percent(value: float) -> str:
 
 
 def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str], subspace: str, relief: str = "") -> str:
-    """The Markdown of ``feature_sets.md`` (``relief``: :func:`relief_line`, after the gain line where not empty)."""
+    """The Markdown of ``feature_sets.md`` (``relief``: :func:`relief_line`, after the gain line where not empty;
+    then :func:`brdf_line` where both its sets were scored)."""
+    brdf = brdf_line(report)
     lines = ["# Feature sets side by side", "",
              f"LOOCV QDA (the classifier of record, Ledoit-Wolf shrinkage"
              f"{', in the discriminant subspace of each fold' if subspace == 'discriminant' else ''}) on the same labelled images, from the "
              f"sources {', '.join(sources)}. 95% Wilson intervals; chance is 1 / number of classes.", "",
-             gain_line, "", *([relief, ""] if relief else []),
+             gain_line, "", *([relief, ""] if relief else []), *([brdf, ""] if brdf else []),
              "The column 'against the best photo' pairs a set with the most accurate photo-only set on the same "
              "images: +a / -b counts the images only this set (only the photo's set) got right, and p is the exact "
              "McNemar test of that split (p >= 0.05: not significant at the 5% level on these images).", "",
@@ -424,6 +439,7 @@ def classifier_candidates(feature_set: str, maps: str, columns: list[str] | pd.I
         sets["photo_structure"] = source_columns(columns, "photo", "structure")
         sets["plus_photo"] = sets["structure_brdf"] + sets["photo_structure"]
         sets |= {name: source_columns(columns, "photo", group) for name, group in PHOTO_GROUPS.items()}
+        sets["photo_structure_brdf"] = sets["photo_structure"] + source_columns(columns, maps, "brdf")
     if feature_set == "auto":
         return sets
     if feature_set not in sets:
