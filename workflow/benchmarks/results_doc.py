@@ -662,10 +662,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/record_alpha_confirmation.md",),
                         f"{py}/record_candidates.py results/microscope_1150/run results/holdout_1151/run "
                         "--prefer none photo_structure --alpha 0.05 0.3 --name record_alpha_confirmation"),
-        BenchmarkReport("Classifier of record: the fitted BRDF beside the photo's structure as the preferred set, confirmation",
-                        ("bench/record_brdf_confirmation.md",),
-                        f"{py}/record_candidates.py results/holdout_1164/run results/microscope_1165/run "
-                        "--prefer photo_structure photo_structure_brdf --name record_brdf_confirmation"),
+        BenchmarkReport("Classifier of record: the fitted BRDF beside the photo's structure as the preferred set, held-out 1164",
+                        ("bench/record_brdf_1164.md",),
+                        f"{py}/record_candidates.py results/holdout_1164/run --prefer photo_structure_brdf "
+                        "--name record_brdf_1164"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
