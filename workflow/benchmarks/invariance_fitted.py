@@ -94,11 +94,11 @@ def candidates_of(feature_set: str, columns: list[str], settings: dict) -> dict[
 
 
 def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], transformed: dict[str, pd.DataFrame],
-                        images: list[str], transform: str, settings: dict,
-                        tile_tables: dict[str, pd.DataFrame],
-                        transformed_tiles: dict[str, pd.DataFrame]) -> dict[str, object]:
-    """Train on all other originals (and their tiles), predict each chosen original and its transformed photo (each with
-    its own tiles where ``classify.test_tiles`` is ``mean``); count changes."""
+                        images: list[str], settings: dict, tile_tables: dict[str, pd.DataFrame],
+                        transformed_tiles: dict[str, pd.DataFrame]) -> list[dict[str, object]]:
+    """One row per transformation: train on all other originals (and their tiles), once per original, predict the
+    original and each of its transformed photos (each with its own tiles where ``classify.test_tiles`` is ``mean``);
+    count changes."""
     spec = next(s for s in FEATURE_SETS if s.name == (RECORD_SOURCES if feature_set == "record" else feature_set))
     tiles = joined_tiles({s: originals[s] for s in spec.sources}, tile_tables)
     scored_tiles = None if settings["test_tiles"] != "mean" else pd.concat(
@@ -106,24 +106,25 @@ def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], tr
     frame, columns = joined_features(spec, originals, common_images({s: originals[s] for s in spec.sources}))
     if feature_set == "record":
         columns = [c for c in frame.columns if c.split(".", 1)[0] in spec.sources]
-    t_ids = [f"{i}__{transform}" for i in images]
     usable_now = set(common_images({s: transformed[s] for s in spec.sources}))
-    ok = [t for t in t_ids if t in usable_now]
-    t_frame, _ = joined_features(spec, transformed, ok)
+    ok = {t: [i for i in images if f"{i}__{t}" in usable_now] for t in PHOTO_TRANSFORMS}
+    t_frame, _ = joined_features(spec, transformed, [f"{i}__{t}" for t in PHOTO_TRANSFORMS for i in ok[t]])
     reg, subspace = settings["reg"], settings["subspace"]
-    changed, wrong = 0, 0
-    for t_id in ok:
-        original = t_id.rsplit("__", 1)[0]
+    candidates = candidates_of(feature_set, columns, settings)
+    changed, wrong = dict.fromkeys(PHOTO_TRANSFORMS, 0), dict.fromkeys(PHOTO_TRANSFORMS, 0)
+    for original in dict.fromkeys(i for t in PHOTO_TRANSFORMS for i in ok[t]):
         others = frame[frame["image_id"] != original]
-        candidates = candidates_of(feature_set, columns, settings)
         chosen = choose_columns(others, candidates, reg, subspace, tiles, choice=Choice.from_config(settings["choice"]))[0]
         model = train_model(others, candidates[chosen], reg, subspace, tiles)
-        pair = pd.concat([frame[frame["image_id"] == original], t_frame[t_frame["image_id"] == t_id]], ignore_index=True)
-        before, after = predict(model, pair, scored_tiles)["predicted_class"]
-        changed += int(before != after)
-        wrong += int(after != pair["fabric_class"].iloc[0])
-    return {"feature_set": feature_set, "transform": transform, "n": len(ok), "changed": changed,
-            "change_rate": changed / len(ok) if ok else 0.0, "wrong_after": wrong, "not_usable": len(t_ids) - len(ok)}
+        for transform in (t for t in PHOTO_TRANSFORMS if original in ok[t]):
+            pair = pd.concat([frame[frame["image_id"] == original],
+                              t_frame[t_frame["image_id"] == f"{original}__{transform}"]], ignore_index=True)
+            before, after = predict(model, pair, scored_tiles)["predicted_class"]
+            changed[transform] += int(before != after)
+            wrong[transform] += int(after != pair["fabric_class"].iloc[0])
+    return [{"feature_set": feature_set, "transform": t, "n": len(ok[t]), "changed": changed[t],
+             "change_rate": changed[t] / len(ok[t]) if ok[t] else 0.0, "wrong_after": wrong[t],
+             "not_usable": len(images) - len(ok[t])} for t in PHOTO_TRANSFORMS]
 
 
 def main() -> int:
@@ -147,12 +148,12 @@ def main() -> int:
     originals, tiles = run_tables(ROOT / "results")
     transformed, transformed_tiles = run_tables(run)
     images = list(sheet["image_id"])
-    rows = [changed_predictions(f, originals, transformed, images, t, settings, tiles, transformed_tiles)
-            for f in SETS for t in PHOTO_TRANSFORMS]
+    rows = [row for f in SETS for row in changed_predictions(f, originals, transformed, images, settings, tiles,
+                                                               transformed_tiles)]
     for prefer in args.prefer:
         preferring = {**settings, "choice": {**settings["choice"], "prefer": prefer}}
-        rows += [{**changed_predictions("record", originals, transformed, images, t, preferring, tiles, transformed_tiles),
-                  "feature_set": f"record, prefer {prefer}"} for t in PHOTO_TRANSFORMS]
+        rows += [{**row, "feature_set": f"record, prefer {prefer}"}
+                 for row in changed_predictions("record", originals, transformed, images, preferring, tiles, transformed_tiles)]
     table = pd.DataFrame(rows)
     lines = ["# Invariance of predictions to the photo's rotation, zoom and colour (refitted)", "",
              f"{len(images)} images x {len(PHOTO_TRANSFORMS)} transformations, prepared, fitted and described by the "
