@@ -475,6 +475,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/pooled_captures.py --set results/microscope/run results/microscope/field/samples.tsv "
                         "--set results/microscope_confirm/run results/microscope_confirm/field/samples.tsv "
                         "--each --name pooled_microscope"),
+        BenchmarkReport("What an open weave's holes cost the fit", ("bench/open_weave/open_weave.md",),
+                        f"{py}/open_weave.py"),
         BenchmarkReport("The light's azimuth: the fit, the falloff and the threads", ("bench/light_direction.md",),
                         f"{py}/light_direction.py"),
         BenchmarkReport("The light's azimuth on sets no choice looked at", ("bench/light_direction_confirm.md",),
@@ -714,7 +716,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("SLURM profile against the local executor", ("bench/slurm.md",), f"{py}/slurm_run.py"),
         BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
         BenchmarkReport("The paper's class subsets: the classifier of record, the fitted maps alone, the photo alone",
-                        ("bench/class_subsets.md",), f"{py}/class_subsets.py --holdout results/holdout_1162/run"),
+                        ("bench/class_subsets.md",),
+                        f"{py}/class_subsets.py --holdout results/holdout_1162/run results/holdout_1164/run"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf"),
         BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),
