@@ -1,11 +1,12 @@
-"""Benchmark: what an open weave's holes cost the fit, on the design set's cotton gauze draws.
+"""Benchmark: what an open weave's holes cost the fit, on the design set's cotton gauze (or chiffon) draws.
 
-    .venv/bin/python workflow/benchmarks/open_weave.py [--dyes red,ivory,...] [--out results/bench/open_weave]
+    .venv/bin/python workflow/benchmarks/open_weave.py [--fabric cotton_gauze] [--dyes red,ivory,...] [--out DIR]
 
 The generator draws cotton gauze's roughness at 0.70-0.85 and chiffon's at 0.35-0.50, yet the fit
 returns both near 0.4, so the fitted BRDF cannot tell apart the two classes that every source
-confuses most. This renders each gauze draw of the embedded design set (same seed, size and
-samples as ``config/config.yaml``) three ways and fits every photo with the workflow's defaults:
+confuses most. This renders each draw of one open-weave class of the embedded design set (same
+seed, size and samples as ``config/config.yaml``) three ways and fits every photo with the
+workflow's defaults:
 
 - ``as drawn``: the photo of the embedded set (a fifth of it is holes showing the backdrop);
 - ``no holes``: the same class with ``open_weave`` off, so the gaps between the yarns are cloth
@@ -19,7 +20,8 @@ Those pixels are found by rendering the draw over a black and over a white backd
 that moves by more than 2/255, grown by one pixel): an oracle no photo gives, to locate the fault.
 Each row gives the true and fitted roughness, the fitted light's polar angle and azimuth against
 the true light (the geometry stage places it), and the re-render PSNR over the pixels the fit saw.
-Writes ``<out>/open_weave.{csv,md}`` and keeps the fits in ``<out>/run`` (and ``<out>/run_from_*``).
+Writes ``<out>/open_weave.{csv,md}`` (default ``results/bench/open_weave`` for gauze,
+``results/bench/open_weave_<fabric>`` otherwise) and keeps the fits in ``<out>/run`` (and ``<out>/run_from_*``).
 Nothing is chosen here.
 """
 from __future__ import annotations
@@ -45,9 +47,9 @@ from clothscope.fit.outputs import STATE_FILE
 from clothscope.prepare.image import CLIPPED_FILE
 from clothscope.synth.fabrics import FABRICS
 
+#: the classes whose holes show a backdrop, and the one scored by default
+OPEN_WEAVES = tuple(name for name, spec in FABRICS.items() if spec.open_weave)
 FABRIC = "cotton_gauze"
-#: how each rendered variant changes the class's FabricSpec
-VARIANTS = {"as drawn": {}, "no holes": {"open_weave": False}, "half relief": {"relief": 0.10, "undulation": 0.04}}
 MASKED = "holes left out"
 #: the partly masked variants: the stages refitted with the holes left out, from the fits as drawn before them
 FROM_STAGE = {"holes left out from the material stage": ("material", "normals"),
@@ -56,15 +58,22 @@ FROM_STAGE = {"holes left out from the material stage": ("material", "normals"),
 BACKDROP_STEP = 2 / 255
 
 
+def variants(fabric: str) -> dict[str, dict]:
+    """How each rendered variant changes the class's FabricSpec."""
+    spec = FABRICS[fabric]
+    return {"as drawn": {}, "no holes": {"open_weave": False},
+            "half relief": {"relief": spec.relief / 2, "undulation": spec.undulation / 2}}
+
+
 @contextmanager
-def changed_spec(change: dict) -> Iterator[None]:
-    """Render the gauze class with ``change`` applied to its FabricSpec, restoring it afterwards."""
-    original = FABRICS[FABRIC]
-    FABRICS[FABRIC] = dataclasses.replace(original, **change)
+def changed_spec(fabric: str, change: dict) -> Iterator[None]:
+    """Render ``fabric`` with ``change`` applied to its FabricSpec, restoring it afterwards."""
+    original = FABRICS[fabric]
+    FABRICS[fabric] = dataclasses.replace(original, **change)
     try:
         yield
     finally:
-        FABRICS[FABRIC] = original
+        FABRICS[fabric] = original
 
 
 @contextmanager
@@ -82,42 +91,42 @@ def backdrop_colour(value: float) -> Iterator[None]:
         generate.scene_dict = original
 
 
-def render(dye: str, settings: dict) -> generate.Synthetic:
-    """One gauze photo of the design seed in ``dye`` (with whatever spec and backdrop are in force)."""
-    return generate.synthesize(FABRIC, list(generate.DYES).index(dye), int(settings["seed"]), int(settings["resolution"]),
+def render(fabric: str, dye: str, settings: dict) -> generate.Synthetic:
+    """One photo of ``fabric`` of the design seed in ``dye`` (with whatever spec and backdrop are in force)."""
+    return generate.synthesize(fabric, list(generate.DYES).index(dye), int(settings["seed"]), int(settings["resolution"]),
                                int(settings["spp"]), int(settings["mesh_resolution"]), "llvm_ad_rgb", 2)
 
 
-def backdrop_mask(dye: str, settings: dict) -> np.ndarray:
+def backdrop_mask(fabric: str, dye: str, settings: dict) -> np.ndarray:
     """Pixels of the photo as drawn where the backdrop shows (see the module's docstring)."""
     looks = []
     for value in (0.0, 1.0):
         with backdrop_colour(value):
-            looks.append(render(dye, settings).image.astype(np.float64))
+            looks.append(render(fabric, dye, settings).image.astype(np.float64))
     return ndimage.binary_dilation(np.abs(looks[1] - looks[0]).mean(axis=2) > BACKDROP_STEP)
 
 
-def write_photos(dyes: list[str], folder: Path, settings: dict) -> tuple[Path, dict[str, np.ndarray]]:
+def write_photos(fabric: str, dyes: list[str], folder: Path, settings: dict) -> tuple[Path, dict[str, np.ndarray]]:
     """Render every variant of every dye into ``folder``; returns the sample sheet and the backdrop masks by image."""
     rows, masks = [], {}
-    for name, change in VARIANTS.items():
-        with changed_spec(change):
+    for name, change in variants(fabric).items():
+        with changed_spec(fabric, change):
             for dye in dyes:
                 image_id = f"{name.replace(' ', '_')}_{dye}"
-                path = folder / FABRIC / f"{image_id}.png"
+                path = folder / fabric / f"{image_id}.png"
                 path.parent.mkdir(parents=True, exist_ok=True)
-                generate.save(render(dye, settings), path)
-                rows.append({"image_id": image_id, "path": str(path), "fabric_class": FABRIC, "dye_color": dye,
+                generate.save(render(fabric, dye, settings), path)
+                rows.append({"image_id": image_id, "path": str(path), "fabric_class": fabric, "dye_color": dye,
                              "source": f"open_weave.py: {name}"})
     for dye in dyes:
         masked_id = f"{MASKED.replace(' ', '_')}_{dye}"
-        drawn = folder / FABRIC / f"as_drawn_{dye}"
+        drawn = folder / fabric / f"as_drawn_{dye}"
         for suffix in (".png", ".truth.json", ".truth-normal.png", ".truth-height.png", ".truth-fold.npy"):
-            target = folder / FABRIC / f"{masked_id}{suffix}"
+            target = folder / fabric / f"{masked_id}{suffix}"
             target.write_bytes(Path(f"{drawn}{suffix}").read_bytes())
-        rows.append({"image_id": masked_id, "path": str(folder / FABRIC / f"{masked_id}.png"), "fabric_class": FABRIC,
+        rows.append({"image_id": masked_id, "path": str(folder / fabric / f"{masked_id}.png"), "fabric_class": fabric,
                      "dye_color": dye, "source": f"open_weave.py: {MASKED}"})
-        masks[masked_id] = backdrop_mask(dye, settings)
+        masks[masked_id] = backdrop_mask(fabric, dye, settings)
     sheet = folder / "samples.tsv"
     pd.DataFrame(rows).to_csv(sheet, sep="\t", index=False)
     return sheet, masks
@@ -161,13 +170,13 @@ def image_row(run: Path, sample: pd.Series, masks: dict[str, np.ndarray], varian
             "psnr_db": normals["psnr_db"]}
 
 
-def markdown(table: pd.DataFrame, sheet: Path, minutes: float) -> str:
+def markdown(table: pd.DataFrame, fabric: str, sheet: Path, minutes: float) -> str:
     """The report: per-variant medians, then every image."""
     table = table.assign(roughness_error=(table["roughness_fitted"] - table["roughness_true"]).abs(),
                          polar_error=(table["light_polar_fitted"] - table["light_polar_true"]).abs())
     medians = table.groupby("variant", sort=False)[["roughness_true", "roughness_fitted", "roughness_error", "polar_error",
                                                    "light_azimuth_error", "left_out", "psnr_db"]].median()
-    lines = ["# What an open weave's holes cost the fit (cotton gauze, design draws)", "",
+    lines = [f"# What an open weave's holes cost the fit ({fabric.replace('_', ' ')}, design draws)", "",
              f"{table['dye'].nunique()} draws of the embedded design set, each fitted by the workflow with the defaults as "
              f"rendered and changed ({shown(sheet)}; {minutes:.1f} min on 2 cores). `holes left out`: the photo as drawn, "
              "the pixels where the backdrop shows marked clipped, so no stage's loss sees them. The light is the one "
@@ -185,17 +194,19 @@ def markdown(table: pd.DataFrame, sheet: Path, minutes: float) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dyes", default=",".join(generate.DYES), help="dyes of the gauze draws (default: all six)")
-    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench" / "open_weave")
+    parser.add_argument("--fabric", default=FABRIC, choices=OPEN_WEAVES, help=f"open-weave class (default: {FABRIC})")
+    parser.add_argument("--dyes", default=",".join(generate.DYES), help="dyes of its draws (default: all six)")
+    parser.add_argument("--out", type=Path, help="report folder (default: results/bench/open_weave[_<fabric>])")
     args = parser.parse_args()
+    out = args.out or ROOT / "results" / "bench" / ("open_weave" if args.fabric == FABRIC else f"open_weave_{args.fabric}")
     dyes = [d for d in args.dyes.split(",") if d]
     unknown = sorted(set(dyes) - set(generate.DYES))
     if unknown:
         raise SystemExit(f"open_weave.py: error: unknown dyes {', '.join(unknown)}; known: {', '.join(generate.DYES)}")
     started = time.perf_counter()
     settings = validated_config()["synthesize"]
-    sheet, masks = write_photos(dyes, args.out / "photos", settings)
-    run = args.out / "run"
+    sheet, masks = write_photos(args.fabric, dyes, out / "photos", settings)
+    run = out / "run"
     config = [f"samples={sheet}", f"results={run}"]
     snakemake(["--config", *config, "--", *[str(run / "prepared" / m) for m in masks]])
     mark_clipped(run, masks)
@@ -203,12 +214,13 @@ def main() -> None:
     snakemake(["--config", *config, "--", *[str(run / "fit" / i / "normals") for i in samples["image_id"]]])
     rows = [image_row(run, sample, masks) for _, sample in samples.iterrows()]
     for variant, stages in FROM_STAGE.items():
-        folder = args.out / f"run_from_{stages[0]}"
+        folder = out / f"run_from_{stages[0]}"
         refit_from(run, folder, stages, samples, masks)
         drawn = samples[samples["source"] == "open_weave.py: as drawn"]
         rows += [image_row(folder, sample, masks, variant) for _, sample in drawn.iterrows()]
     table = pd.DataFrame(rows)
-    publish(args.out, "open_weave", table, markdown(table, sheet, (time.perf_counter() - started) / 60), float_format="%.4f")
+    publish(out, "open_weave", table, markdown(table, args.fabric, sheet, (time.perf_counter() - started) / 60),
+            float_format="%.4f")
 
 
 if __name__ == "__main__":

@@ -477,6 +477,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "--each --name pooled_microscope"),
         BenchmarkReport("What an open weave's holes cost the fit", ("bench/open_weave/open_weave.md",),
                         f"{py}/open_weave.py"),
+        BenchmarkReport("What an open weave's holes cost the fit, chiffon", ("bench/open_weave_chiffon/open_weave.md",),
+                        f"{py}/open_weave.py --fabric chiffon"),
         BenchmarkReport("The light's azimuth: the fit, the falloff and the threads", ("bench/light_direction.md",),
                         f"{py}/light_direction.py"),
         BenchmarkReport("The light's azimuth on sets no choice looked at", ("bench/light_direction_confirm.md",),
