@@ -8,7 +8,7 @@ confuses most. This renders each draw of one open-weave class of the embedded de
 seed, size and samples as ``config/config.yaml``) three ways and fits every photo with the
 workflow's defaults:
 
-- ``as drawn``: the photo of the embedded set (a fifth of it is holes showing the backdrop);
+- ``as drawn``: the photo of the embedded set (a fifth to a third of it is holes showing the backdrop);
 - ``no holes``: the same class with ``open_weave`` off, so the gaps between the yarns are cloth
   (the draw's other random numbers shift, so its roughness and light differ);
 - ``half relief``: as drawn with half the yarns' relief and undulation (less thread-scale shadow);
