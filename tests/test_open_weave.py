@@ -21,6 +21,8 @@ def test_the_backdrop_shows_through_the_holes_and_not_once_they_are_closed():
         closed = open_weave.backdrop_mask(open_weave.FABRIC, "red", FEW_SAMPLES)
     assert not closed.any()
     assert FABRICS[open_weave.FABRIC].open_weave  # the class is restored
+    sheer = open_weave.backdrop_mask("chiffon", "red", FEW_SAMPLES)  # its yarns' own transmission is no hole
+    assert 0.1 < sheer.mean() < 0.7 and FABRICS["chiffon"].sheer
 
 
 def test_the_open_weaves_are_the_classes_with_holes():

@@ -10,7 +10,7 @@ from clothscope.core.config import settings
 from clothscope.core.mesh import grid_faces
 from clothscope.core.runtime import mitsuba_for
 from clothscope.fit.geometry import grid_from, pinned_plane, starting_light, tilted_grid
-from clothscope.fit.light import apply_light, cloth_normal, light_from_latent, thread_light, tilted
+from clothscope.fit.light import apply_light, cloth_normal, estimate_light, light_from_latent, thread_light, tilted
 from clothscope.fit.loop import LoopSettings, optimise, render
 from clothscope.fit.model import FitCamera, FitLight, FitScene, Material, build_scene, plane_grid
 from clothscope.fit.target import Target, image_loss
@@ -210,3 +210,11 @@ def test_the_light_starts_where_the_chosen_evidence_puts_it():
     assert light.polar_deg >= falloff_only.thread_light_polar_deg
     unsure = settings("fit.geometry", light_start="threads", thread_light_strength=10.0)
     assert starting_light(photo, CAMERA, unsure)[1]["chosen"] == "falloff"
+
+
+def test_a_light_cannot_be_placed_on_a_clipped_photo():
+    image = np.full((256, 256, 3), 0.4)
+    with pytest.raises(ValueError, match="no unclipped pixel"):
+        estimate_light(image, np.zeros((256, 256)), CAMERA)
+    light, residual = estimate_light(image, np.ones((256, 256)), CAMERA)
+    assert np.isfinite(residual) and 0.0 <= light.polar_deg <= 64.0

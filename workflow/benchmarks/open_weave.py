@@ -16,8 +16,9 @@ workflow's defaults:
 and three times more with the pixels where the backdrop shows marked clipped in the prepared photo
 as drawn, so a stage's loss does not see them: in every stage (``holes left out``), from the
 material stage on (the geometry stage's fit as drawn kept) and in the normal-map stage alone.
-Those pixels are found by rendering the draw over a black and over a white backdrop (any pixel
-that moves by more than 2/255, grown by one pixel): an oracle no photo gives, to locate the fault.
+Those pixels are found by rendering the draw, with opaque yarns, over a black backdrop that glows
+white and one that does not: a pixel is a hole where more than half of it sees the backdrop. It is
+an oracle no photo gives, to locate the fault.
 Each row gives the true and fitted roughness, the fitted light's polar angle and azimuth against
 the true light (the geometry stage places it), and the re-render PSNR over the pixels the fit saw.
 Writes ``<out>/open_weave.{csv,md}`` (default ``results/bench/open_weave`` for gauze,
@@ -38,11 +39,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from harness import ROOT, publish, shown, snakemake, validated_config
-from scipy import ndimage
 
 import clothscope.synth.generate as generate
 from clothscope.core.config import FIT_STAGES
-from clothscope.core.imageio import read_png, write_png
+from clothscope.core.imageio import read_png, srgb_to_linear, write_png
 from clothscope.fit.outputs import STATE_FILE
 from clothscope.prepare.image import CLIPPED_FILE
 from clothscope.synth.fabrics import FABRICS
@@ -54,8 +54,8 @@ MASKED = "holes left out"
 #: the partly masked variants: the stages refitted with the holes left out, from the fits as drawn before them
 FROM_STAGE = {"holes left out from the material stage": ("material", "normals"),
               "holes left out of the normal-map stage": ("normals",)}
-#: a pixel whose 8-bit value moves by more than this between a black and a white backdrop shows the backdrop
-BACKDROP_STEP = 2 / 255
+#: a pixel is a hole where more than this share of it sees the backdrop (mostly backdrop, not a yarn's edge)
+BACKDROP_SHARE = 0.5
 
 
 def variants(fabric: str) -> dict[str, dict]:
@@ -77,12 +77,16 @@ def changed_spec(fabric: str, change: dict) -> Iterator[None]:
 
 
 @contextmanager
-def backdrop_colour(value: float) -> Iterator[None]:
-    """Render every backdrop grey at ``value`` (linear), restoring the generator's scene afterwards."""
+def glowing_backdrop(radiance: float) -> Iterator[None]:
+    """Render every backdrop black and glowing at ``radiance``, restoring the generator's scene afterwards: a pixel
+    then reads the share of it where the backdrop is seen, whatever light and shadow fall on it."""
     original = generate.scene_dict
 
     def scene(mi, mesh, camera, light, effects, backdrop, seed):  # noqa: ANN001, ANN202 (the generator's signature)
-        return original(mi, mesh, camera, light, effects, None if backdrop is None else np.full(3, value), seed)
+        built = original(mi, mesh, camera, light, effects, None if backdrop is None else np.zeros(3), seed)
+        if "backdrop" in built:
+            built["backdrop"]["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": [radiance] * 3}}
+        return built
 
     generate.scene_dict = scene
     try:
@@ -98,12 +102,15 @@ def render(fabric: str, dye: str, settings: dict) -> generate.Synthetic:
 
 
 def backdrop_mask(fabric: str, dye: str, settings: dict) -> np.ndarray:
-    """Pixels of the photo as drawn where the backdrop shows (see the module's docstring)."""
+    """Pixels of the photo as drawn where the backdrop shows through a hole (see the module's docstring).
+
+    The two looks are rendered with opaque yarns, so a sheer cloth's own transmission does not count as a hole.
+    """
     looks = []
-    for value in (0.0, 1.0):
-        with backdrop_colour(value):
-            looks.append(render(fabric, dye, settings).image.astype(np.float64))
-    return ndimage.binary_dilation(np.abs(looks[1] - looks[0]).mean(axis=2) > BACKDROP_STEP)
+    for radiance in (0.0, 1.0):
+        with glowing_backdrop(radiance), changed_spec(fabric, {"sheer": False}):
+            looks.append(srgb_to_linear(render(fabric, dye, settings).image.astype(np.float64)))
+    return np.abs(looks[1] - looks[0]).mean(axis=2) > BACKDROP_SHARE
 
 
 def write_photos(fabric: str, dyes: list[str], folder: Path, settings: dict) -> tuple[Path, dict[str, np.ndarray]]:

@@ -62,11 +62,19 @@ def estimate_light(image: np.ndarray, weight: np.ndarray, camera: FitCamera, dis
     Returns
     -------
     The light and the relative residual of the best fit (0 = perfect).
+
+    Raises
+    ------
+    ValueError
+        When every pixel it samples is clipped (``prepare`` rejects photos far short of that).
     """
     size = 16
     zoom = size / image.shape[0]
     target = ndimage.zoom(luminance(image) * weight, zoom, order=1)
     mask = ndimage.zoom(weight.astype(float), zoom, order=1) > 0.5
+    if not mask.any():
+        raise ValueError(f"no unclipped pixel among the 16 x 16 the light is placed by ({int(np.sum(weight > 0))} of "
+                         f"{weight.size} pixels unclipped)")
     x, y = plane_points(camera, size)
     best, best_residual = FitLight(0.0, 0.0, distance), np.inf
     norm = float(np.sum(target[mask] ** 2)) + 1e-12
