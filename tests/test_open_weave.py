@@ -32,9 +32,12 @@ def test_the_open_weaves_are_the_classes_with_holes():
 
 def test_the_report_gives_medians_per_variant():
     rows = [{"variant": variant, "dye": dye, "roughness_true": 0.8, "roughness_fitted": fitted, "light_polar_true": 30.0,
-             "light_polar_fitted": 30.0 + error, "light_azimuth_error": error, "left_out": 0.0, "psnr_db": 30.0}
+             "light_polar_fitted": 30.0 + error, "light_azimuth_error": error, "left_out": 0.0, "psnr_db": 30.0,
+             "status": "fitted"}
             for variant, fitted, error in (("as drawn", 0.4, 20.0), ("no holes", 0.7, 2.0)) for dye in ("red", "ivory")]
+    rows.append({"variant": "no holes", "dye": "navy", "status": "failed: geometry: no light"})
     text = open_weave.markdown(pd.DataFrame(rows), "cotton_gauze", Path("sheet.tsv"), 1.0)
+    assert "- not fitted: no holes, navy (failed: geometry: no light)" in text and "nan" not in text
     assert text.startswith("# What an open weave's holes cost the fit (cotton gauze, design draws)")
     assert "| as drawn | 0.800 | 0.400 | 0.400 | 20.0 | 20.0 | 0.0% | 30.0 |" in text
     assert "| no holes | 0.800 | 0.700 | 0.100 | 2.0 | 2.0 | 0.0% | 30.0 |" in text

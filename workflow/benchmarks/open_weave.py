@@ -168,17 +168,22 @@ def image_row(run: Path, sample: pd.Series, masks: dict[str, np.ndarray], varian
     """True and fitted roughness, light and PSNR of one fitted photo (``variant``: else its sample sheet's)."""
     truth = json.loads(Path(str(sample["path"]).removesuffix(".png") + ".truth.json").read_text(encoding="utf-8"))
     normals = json.loads((run / "fit" / sample["image_id"] / "normals" / STATE_FILE).read_text(encoding="utf-8"))
+    if normals.get("status") != "fitted":
+        return {"variant": variant or sample["source"].removeprefix("open_weave.py: "), "dye": sample["dye_color"],
+                "status": f"{normals.get('status')}: {normals.get('reason', '')}"}
     light = normals["scene"]["light"]
     azimuth = abs((light["azimuth_deg"] - truth["light"]["azimuth_deg"] + 180.0) % 360.0 - 180.0)
     return {"variant": variant or sample["source"].removeprefix("open_weave.py: "), "dye": sample["dye_color"],
             "roughness_true": truth["roughness"], "roughness_fitted": normals["material"]["roughness"],
             "light_polar_true": truth["light"]["polar_deg"], "light_polar_fitted": light["polar_deg"],
             "light_azimuth_error": azimuth, "left_out": float(np.mean(read_png(run / "prepared" / sample["image_id"] / CLIPPED_FILE) > 0.5)),
-            "psnr_db": normals["psnr_db"]}
+            "psnr_db": normals["psnr_db"], "status": "fitted"}
 
 
 def markdown(table: pd.DataFrame, fabric: str, sheet: Path, minutes: float) -> str:
-    """The report: per-variant medians, then every image."""
+    """The report: per-variant medians, then every image (and a line for each photo the workflow did not fit)."""
+    failed = table[table["status"] != "fitted"]
+    table = table[table["status"] == "fitted"]
     table = table.assign(roughness_error=(table["roughness_fitted"] - table["roughness_true"]).abs(),
                          polar_error=(table["light_polar_fitted"] - table["light_polar_true"]).abs())
     medians = table.groupby("variant", sort=False)[["roughness_true", "roughness_fitted", "roughness_error", "polar_error",
@@ -192,6 +197,7 @@ def markdown(table: pd.DataFrame, fabric: str, sheet: Path, minutes: float) -> s
              "pixels left out | PSNR (dB) |", "|---|---|---|---|---|---|---|---|"]
     lines += [f"| {v} | {r.roughness_true:.3f} | {r.roughness_fitted:.3f} | {r.roughness_error:.3f} | {r.polar_error:.1f} | "
               f"{r.light_azimuth_error:.1f} | {r.left_out:.1%} | {r.psnr_db:.1f} |" for v, r in medians.iterrows()]
+    lines += [f"- not fitted: {r.variant}, {r.dye} ({r.status})" for r in failed.itertuples()]
     lines += ["", "Every image:", "", "| variant | dye | roughness, true | fitted | light polar, true | fitted | "
               "azimuth error | PSNR (dB) |", "|---|---|---|---|---|---|---|---|"]
     lines += [f"| {r.variant} | {r.dye} | {r.roughness_true:.3f} | {r.roughness_fitted:.3f} | {r.light_polar_true:.1f} | "
@@ -214,6 +220,7 @@ def main() -> None:
     settings = validated_config()["synthesize"]
     sheet, masks = write_photos(args.fabric, dyes, out / "photos", settings)
     run = out / "run"
+    shutil.rmtree(run, ignore_errors=True)  # fits of earlier photos or code would pass for current under mtime triggers
     config = [f"samples={sheet}", f"results={run}"]
     snakemake(["--config", *config, "--", *[str(run / "prepared" / m) for m in masks]])
     mark_clipped(run, masks)
