@@ -191,8 +191,10 @@ def markdown(table: pd.DataFrame, fabric: str, sheet: Path, minutes: float) -> s
     lines = [f"# What an open weave's holes cost the fit ({fabric.replace('_', ' ')}, design draws)", "",
              f"{table['dye'].nunique()} draws of the embedded design set, each fitted by the workflow with the defaults as "
              f"rendered and changed ({shown(sheet)}; {minutes:.1f} min on 2 cores). `holes left out`: the photo as drawn, "
-             "the pixels where the backdrop shows marked clipped, so no stage's loss sees them. The light is the one "
-             "the geometry stage placed; PSNR is over the pixels the fit saw. Medians:", "",
+             "its hole pixels (more than half of each sees the backdrop, an oracle mask) marked clipped, so no stage's "
+             "loss sees them; `... from the material stage` and `... of the normal-map stage`: only those stages "
+             "refitted so, from the fits as drawn before them. The light is the one the geometry stage placed; PSNR "
+             "is over the pixels the fit saw. Medians:", "",
              "| variant | roughness, true | fitted | error | light polar error (deg) | light azimuth error (deg) | "
              "pixels left out | PSNR (dB) |", "|---|---|---|---|---|---|---|---|"]
     lines += [f"| {v} | {r.roughness_true:.3f} | {r.roughness_fitted:.3f} | {r.roughness_error:.3f} | {r.polar_error:.1f} | "
