@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from harness import ROOT, publish, shown, snakemake, validated_config
+from light_direction import azimuth_error
 
 import clothscope.synth.generate as generate
 from clothscope.core.config import FIT_STAGES
@@ -50,7 +51,9 @@ from clothscope.synth.fabrics import FABRICS
 #: the classes whose holes show a backdrop, and the one scored by default
 OPEN_WEAVES = tuple(name for name, spec in FABRICS.items() if spec.open_weave)
 FABRIC = "cotton_gauze"
-MASKED = "holes left out"
+DRAWN, MASKED = "as drawn", "holes left out"
+#: the sample sheet's ``source`` of every photo: this prefix and its variant
+SOURCE = "open_weave.py: "
 #: the partly masked variants: the stages refitted with the holes left out, from the fits as drawn before them
 FROM_STAGE = {"holes left out from the material stage": ("material", "normals"),
               "holes left out of the normal-map stage": ("normals",)}
@@ -113,36 +116,51 @@ def backdrop_mask(fabric: str, dye: str, settings: dict) -> np.ndarray:
     return np.abs(looks[1] - looks[0]).mean(axis=2) > BACKDROP_SHARE
 
 
+def image_id(variant: str, dye: str) -> str:
+    """The sample sheet's id of one variant of one dye's draw."""
+    return f"{variant.replace(' ', '_')}_{dye}"
+
+
+def sheet_row(variant: str, dye: str, path: Path, fabric: str) -> dict[str, str]:
+    """One row of the benchmark's sample sheet."""
+    return {"image_id": image_id(variant, dye), "path": str(path), "fabric_class": fabric, "dye_color": dye,
+            "source": SOURCE + variant}
+
+
 def write_photos(fabric: str, dyes: list[str], folder: Path, settings: dict) -> tuple[Path, dict[str, np.ndarray]]:
-    """Render every variant of every dye into ``folder``; returns the sample sheet and the backdrop masks by image."""
-    rows, masks = [], {}
+    """Render every variant of every dye into ``folder``; returns the sample sheet and the backdrop masks by dye.
+
+    The masked variant's rows name the photos as drawn (same file, another id).
+    """
+    rows = []
     for name, change in variants(fabric).items():
         with changed_spec(fabric, change):
             for dye in dyes:
-                image_id = f"{name.replace(' ', '_')}_{dye}"
-                path = folder / fabric / f"{image_id}.png"
+                path = folder / fabric / f"{image_id(name, dye)}.png"
                 path.parent.mkdir(parents=True, exist_ok=True)
                 generate.save(render(fabric, dye, settings), path)
-                rows.append({"image_id": image_id, "path": str(path), "fabric_class": fabric, "dye_color": dye,
-                             "source": f"open_weave.py: {name}"})
-    for dye in dyes:
-        masked_id = f"{MASKED.replace(' ', '_')}_{dye}"
-        drawn = folder / fabric / f"as_drawn_{dye}"
-        for suffix in (".png", ".truth.json", ".truth-normal.png", ".truth-height.png", ".truth-fold.npy"):
-            target = folder / fabric / f"{masked_id}{suffix}"
-            target.write_bytes(Path(f"{drawn}{suffix}").read_bytes())
-        rows.append({"image_id": masked_id, "path": str(folder / fabric / f"{masked_id}.png"), "fabric_class": fabric,
-                     "dye_color": dye, "source": f"open_weave.py: {MASKED}"})
-        masks[masked_id] = backdrop_mask(fabric, dye, settings)
+                rows.append(sheet_row(name, dye, path, fabric))
+    rows += [sheet_row(MASKED, dye, folder / fabric / f"{image_id(DRAWN, dye)}.png", fabric) for dye in dyes]
     sheet = folder / "samples.tsv"
     pd.DataFrame(rows).to_csv(sheet, sep="\t", index=False)
-    return sheet, masks
+    return sheet, {dye: backdrop_mask(fabric, dye, settings) for dye in dyes}
 
 
-def mark_clipped(run: Path, masks: dict[str, np.ndarray]) -> None:
-    """Add each backdrop mask to its prepared photo's clipped pixels, which every fit stage leaves out of its loss."""
-    for image_id, mask in masks.items():
-        path = run / "prepared" / image_id / CLIPPED_FILE
+def variant_of(sample: pd.Series) -> str:
+    """The variant a sample sheet row was rendered as."""
+    return str(sample["source"]).removeprefix(SOURCE)
+
+
+def drawn_photos(samples: pd.DataFrame) -> pd.DataFrame:
+    """The rows of the photos as drawn."""
+    return samples[samples["source"] == SOURCE + DRAWN]
+
+
+def mark_clipped(run: Path, masks: dict[str, np.ndarray], variant: str) -> None:
+    """Add each dye's backdrop mask to the clipped pixels of its ``variant``'s prepared photo, which every fit stage
+    leaves out of its loss."""
+    for dye, mask in masks.items():
+        path = run / "prepared" / image_id(variant, dye) / CLIPPED_FILE
         clipped = read_png(path) > 0.5
         if clipped.shape != mask.shape:
             raise SystemExit(f"open_weave.py: error: {shown(path)} is {clipped.shape}, the backdrop mask {mask.shape}")
@@ -151,29 +169,29 @@ def mark_clipped(run: Path, masks: dict[str, np.ndarray]) -> None:
 
 def refit_from(run: Path, folder: Path, stages: tuple[str, ...], samples: pd.DataFrame, masks: dict[str, np.ndarray]) -> None:
     """Refit ``stages`` of the photos as drawn in ``folder`` with the holes left out, from ``run``'s earlier stages."""
-    drawn = samples[samples["source"] == "open_weave.py: as drawn"]
+    drawn = drawn_photos(samples)
     shutil.rmtree(folder, ignore_errors=True)
-    for image_id in drawn["image_id"]:
-        shutil.copytree(run / "prepared" / image_id, folder / "prepared" / image_id)
+    for photo in drawn["image_id"]:
+        shutil.copytree(run / "prepared" / photo, folder / "prepared" / photo)
         for stage in FIT_STAGES[:FIT_STAGES.index(stages[0])]:
-            shutil.copytree(run / "fit" / image_id / stage, folder / "fit" / image_id / stage)
-    mark_clipped(folder, {image_id: masks[image_id.replace("as_drawn", MASKED.replace(" ", "_"))] for image_id in drawn["image_id"]})
+            shutil.copytree(run / "fit" / photo / stage, folder / "fit" / photo / stage)
+    mark_clipped(folder, masks, DRAWN)
     sheet = folder / "samples.tsv"
     drawn.to_csv(sheet, sep="\t", index=False)
     snakemake(["--allowed-rules", *[f"fit_{stage}" for stage in stages], "--config", f"samples={sheet}", f"results={folder}",
                "--", *[str(folder / "fit" / i / "normals") for i in drawn["image_id"]]])
 
 
-def image_row(run: Path, sample: pd.Series, masks: dict[str, np.ndarray], variant: str | None = None) -> dict:
+def image_row(run: Path, sample: pd.Series, variant: str | None = None) -> dict:
     """True and fitted roughness, light and PSNR of one fitted photo (``variant``: else its sample sheet's)."""
     truth = json.loads(Path(str(sample["path"]).removesuffix(".png") + ".truth.json").read_text(encoding="utf-8"))
     normals = json.loads((run / "fit" / sample["image_id"] / "normals" / STATE_FILE).read_text(encoding="utf-8"))
     if normals.get("status") != "fitted":
-        return {"variant": variant or sample["source"].removeprefix("open_weave.py: "), "dye": sample["dye_color"],
+        return {"variant": variant or variant_of(sample), "dye": sample["dye_color"],
                 "status": f"{normals.get('status')}: {normals.get('reason', '')}"}
     light = normals["scene"]["light"]
-    azimuth = abs((light["azimuth_deg"] - truth["light"]["azimuth_deg"] + 180.0) % 360.0 - 180.0)
-    return {"variant": variant or sample["source"].removeprefix("open_weave.py: "), "dye": sample["dye_color"],
+    azimuth = azimuth_error(light["azimuth_deg"], truth["light"]["azimuth_deg"])
+    return {"variant": variant or variant_of(sample), "dye": sample["dye_color"],
             "roughness_true": truth["roughness"], "roughness_fitted": normals["material"]["roughness"],
             "light_polar_true": truth["light"]["polar_deg"], "light_polar_fitted": light["polar_deg"],
             "light_azimuth_error": azimuth, "left_out": float(np.mean(read_png(run / "prepared" / sample["image_id"] / CLIPPED_FILE) > 0.5)),
@@ -224,16 +242,15 @@ def main() -> None:
     run = out / "run"
     shutil.rmtree(run, ignore_errors=True)  # fits of earlier photos or code would pass for current under mtime triggers
     config = [f"samples={sheet}", f"results={run}"]
-    snakemake(["--config", *config, "--", *[str(run / "prepared" / m) for m in masks]])
-    mark_clipped(run, masks)
+    snakemake(["--config", *config, "--", *[str(run / "prepared" / image_id(MASKED, dye)) for dye in masks]])
+    mark_clipped(run, masks, MASKED)
     samples = pd.read_csv(sheet, sep="\t", dtype=str)
     snakemake(["--config", *config, "--", *[str(run / "fit" / i / "normals") for i in samples["image_id"]]])
-    rows = [image_row(run, sample, masks) for _, sample in samples.iterrows()]
+    rows = [image_row(run, sample) for _, sample in samples.iterrows()]
     for variant, stages in FROM_STAGE.items():
         folder = out / f"run_from_{stages[0]}"
         refit_from(run, folder, stages, samples, masks)
-        drawn = samples[samples["source"] == "open_weave.py: as drawn"]
-        rows += [image_row(folder, sample, masks, variant) for _, sample in drawn.iterrows()]
+        rows += [image_row(folder, sample, variant) for _, sample in drawn_photos(samples).iterrows()]
     table = pd.DataFrame(rows)
     publish(out, "open_weave", table, markdown(table, args.fabric, sheet, (time.perf_counter() - started) / 60),
             float_format="%.4f")
