@@ -412,6 +412,23 @@ def test_nested_selection_picks_the_informative_set_inside_every_fold():
     assert result.selected.get("profile", 0) >= 16 and result.accuracy > 0.9
 
 
+def test_the_vote_averages_every_candidates_posteriors_in_every_fold():
+    from clothscope.classify.loocv import loocv, posterior_row
+    from clothscope.classify.model import train_model
+
+    rng = np.random.default_rng(2)
+    table = _table("fitted", rng, True)
+    candidates = {"noise": ["lbp_8_1_0", "lbp_8_1_1"], "profile": [f"s_prof_{k}" for k in range(1, 4)],
+                  "again": ["lbp_8_1_0", "lbp_8_1_1"]}  # the same columns as "noise": it does not vote twice
+    result = loocv(table, [], select_from=candidates, vote=True)
+    assert result.selected == {"noise": 18, "profile": 18} and result.accuracy > 0.9
+    rows, query = table.iloc[1:], table.iloc[[0]]
+    by_hand = np.mean([posterior_row(train_model(rows, candidates[name]), query, ["a", "b", "c"], None)
+                       for name in ("noise", "profile")], axis=0)
+    assert np.allclose(result.predictions.iloc[0][["p_a", "p_b", "p_c"]].to_numpy(float), by_hand)
+    assert np.isfinite(result.predictions[["p_a", "p_b", "p_c"]].to_numpy(float)).all()
+
+
 def test_joined_table_marks_an_image_unusable_when_any_source_fails():
     from clothscope.classify.feature_sets import classifier_candidates, joined_table
 

@@ -31,10 +31,13 @@ from clothscope.features.structure import (
 
 #: Column groups of a feature table.
 BRDF_COLUMNS = ("roughness", "specular_norm")
-#: Column groups the ``auto`` feature set chooses from, inside each LOOCV fold (ties go to the first).
+#: Column groups the ``auto`` feature set chooses from, inside each LOOCV fold (ties go to the first), and whose
+#: QDAs the ``vote`` feature set averages.
 AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf", "texture_shade_brdf")
 #: Column groups a joined table (:func:`joined_table`) keeps of each source: the ``auto`` groups and the spectrum rings.
 JOINED_GROUPS = (*AUTO_GROUPS, "spectrum")
+#: Group names that stand for all of :data:`AUTO_GROUPS`: ``auto`` chooses one inside each fold, ``vote`` averages them.
+CANDIDATE_GROUPS = ("auto", "vote")
 #: The photo's own column sets beside a fitted or true classifier (``photo_structure`` is named above them):
 #: its radial profile, the paper's features, LBP, and structure with LBP (the photo's BRDF columns are zero, so dropped).
 PHOTO_GROUPS = {"photo_profile": "profile", "photo_paper": "paper", "photo_lbp": "lbp", "photo_texture": "texture"}
@@ -73,7 +76,7 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
 
 
 def source_columns(columns: list[str] | pd.Index, source: str, group: str) -> list[str]:
-    """A group's columns of one source in a joined table (``<source>.<column>``); ``auto``: every AUTO_GROUPS column.
+    """A group's columns of one source in a joined table (``<source>.<column>``); ``auto``, ``vote``: every AUTO_GROUPS column.
 
     The weave rings ``w_*`` are left out for a source not in :data:`RING_SOURCES`.
     """
@@ -81,12 +84,12 @@ def source_columns(columns: list[str] | pd.Index, source: str, group: str) -> li
     own = [c[len(prefix):] for c in columns if c.startswith(prefix)]
     if source not in RING_SOURCES:
         own = [c for c in own if c not in WEAVE_COLUMNS]
-    groups = AUTO_GROUPS if group == "auto" else (group,)
+    groups = AUTO_GROUPS if group in CANDIDATE_GROUPS else (group,)
     return [prefix + c for c in dict.fromkeys(c for g in groups for c in group_columns(g, own))]
 
 
 def auto_candidates(columns: list[str] | pd.Index, source: str) -> dict[str, list[str]]:
-    """The column sets of one source that the ``auto`` feature set chooses from (:data:`AUTO_GROUPS`)."""
+    """The column sets of one source that the ``auto`` feature set chooses from and ``vote`` averages (:data:`AUTO_GROUPS`)."""
     return {group: source_columns(columns, source, group) for group in AUTO_GROUPS}
 
 
@@ -126,6 +129,9 @@ FEATURE_SETS = (
                (("fitted", "auto"),)),
     FeatureSet("auto_photo", "chosen inside each fold among the same sets on the photo", (("photo", "auto"),)),
     FeatureSet("auto_truth", "chosen inside each fold among the same sets on ground-truth maps", (("truth", "auto"),)),
+    FeatureSet("vote_fitted", "mean posterior of the QDAs of the same sets on fitted maps (nothing chosen)", (("fitted", "vote"),)),
+    FeatureSet("vote_photo", "mean posterior of the QDAs of the same sets on the photo", (("photo", "vote"),)),
+    FeatureSet("vote_truth", "mean posterior of the QDAs of the same sets on ground-truth maps", (("truth", "vote"),)),
     FeatureSet("paper_truth", "the paper's features on ground-truth normal maps", (("truth", "paper"),)),
     FeatureSet("structure_truth", "structure descriptor of the true relief alone (no BRDF)", (("truth", "structure"),)),
     FeatureSet("structure_brdf_truth", "structure descriptor of the true relief + true BRDF", (("truth", "structure_brdf"),)),
@@ -174,16 +180,18 @@ def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], 
     image is scored with its tiles (:func:`clothscope.classify.loocv.loocv`)."""
     try:
         frame, columns = joined_features(feature_set, tables, images)
-        auto = [source for source, group in feature_set.parts if group == "auto"]
+        pooled = [(source, group) for source, group in feature_set.parts if group in CANDIDATE_GROUPS]
         tiles = joined_tiles({source: tables[source] for source in feature_set.sources}, tile_tables)
-        result = loocv(frame, columns, reg, select_from=auto_candidates(columns, auto[0]) if auto else None,
-                       subspace=subspace, tiles=tiles, test_tiles=test_tiles)
+        voting = bool(pooled) and pooled[0][1] == "vote"
+        result = loocv(frame, columns, reg, select_from=auto_candidates(columns, pooled[0][0]) if pooled else None,
+                       subspace=subspace, tiles=tiles, test_tiles=test_tiles, vote=voting)
     except (KeyError, ValueError) as err:
         return _unscored_row(feature_set, str(err)), None
-    chosen = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
+    counts = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
+    chosen = f"{'votes' if voting else 'folds chose'}: {counts}" if counts else ""
     predictions = result.predictions.set_index("image_id")
     right = predictions["predicted_class"] == predictions["true_class"]
-    return {**_unscored_row(feature_set, f"folds chose: {chosen}" if chosen else ""), "status": "ok",
+    return {**_unscored_row(feature_set, chosen), "status": "ok",
             "n_features": len(result.feature_columns), "n": result.n, "correct": result.correct, "accuracy": result.accuracy,
             "wilson_low": result.wilson_low, "wilson_high": result.wilson_high, "chance": result.chance_uniform}, right
 

@@ -240,10 +240,45 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
     return best, scores
 
 
+def posterior_row(model: Any, query: pd.DataFrame, classes: list[str], tiles: pd.DataFrame | None) -> np.ndarray:
+    """The posteriors over ``classes`` of the one row ``query`` under a trained model (``tiles``: :func:`predict`)."""
+    if model.classes != classes:
+        raise ValueError(f"a fold's model has classes {model.classes}, not {classes}")
+    return predict(model, query, tiles)[[posterior_column(c) for c in classes]].to_numpy(float)[0]
+
+
+def voted_posteriors(rows: pd.DataFrame, query: pd.DataFrame, candidates: dict[str, list[str]], classes: list[str],
+                     reg: float | str, subspace: str, tiles: pd.DataFrame | None,
+                     test_tiles: bool) -> tuple[np.ndarray, list[str]]:
+    """The mean posterior over ``classes`` of the one row ``query`` under a QDA of each distinct candidate set
+    trained on ``rows`` (:func:`_distinct_candidates`), and the names of the sets that voted.
+
+    Every set votes with equal weight, so nothing is chosen by a score. A set that
+    cannot be trained (no column varies) does not vote.
+
+    Raises
+    ------
+    ValueError
+        When no candidate can be trained.
+    """
+    total, voters, problems = np.zeros(len(classes)), [], []
+    for name, columns in _distinct_candidates(rows, candidates).items():
+        try:
+            model = train_model(rows, columns, reg, subspace, tiles)
+        except ValueError as err:
+            problems.append(f"{name}: {str(err).splitlines()[0]}")
+            continue
+        total += posterior_row(model, query, classes, tiles if test_tiles else None)
+        voters.append(name)
+    if not voters:
+        raise ValueError(f"no candidate feature set could be trained ({'; '.join(problems)})")
+    return total / len(voters), voters
+
+
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
           select_from: dict[str, list[str]] | None = None, subspace: str = "none",
           tiles: pd.DataFrame | None = None, score: InnerScore | None = None,
-          choice: Choice | None = None, test_tiles: bool = False) -> LoocvResult:
+          choice: Choice | None = None, test_tiles: bool = False, vote: bool = False) -> LoocvResult:
     """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
 
     Each labelled image is classified by a model fitted (scaler included) on
@@ -264,7 +299,9 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         Candidate column sets by name: each fold then uses the set that
         :func:`choose_columns` picks by an inner cross-validation of its
         *training* images only, so the held-out image never takes part in
-        the choice (``selected`` counts the picks).
+        the choice (``selected`` counts the picks). With ``vote``, nothing is
+        chosen: each fold averages the posteriors of every candidate's QDA
+        (:func:`voted_posteriors`; ``selected`` counts the votes).
     subspace
         Feature space of the QDA (:func:`make_qda`).
     tiles
@@ -302,14 +339,15 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
     for i in range(n):
         train = np.arange(n) != i
         if select_from:
-            rows = labelled.iloc[np.flatnonzero(train)]
-            name, _ = choose_columns(rows, select_from, reg, subspace, tiles, score, choice)
-            selected[name] = selected.get(name, 0) + 1
-            model = train_model(rows, select_from[name], reg, subspace, tiles)
-            if model.classes != classes:
-                raise ValueError(f"fold {ids[i]}: fitted classes {model.classes} differ from {classes}")
-            scored = predict(model, labelled.iloc[[i]], tiles if test_tiles else None)
-            proba[i] = scored[[posterior_column(c) for c in classes]].to_numpy(float)[0]
+            rows, query = labelled.iloc[np.flatnonzero(train)], labelled.iloc[[i]]
+            if vote:
+                proba[i], names = voted_posteriors(rows, query, select_from, classes, reg, subspace, tiles, test_tiles)
+            else:
+                names = [choose_columns(rows, select_from, reg, subspace, tiles, score, choice)[0]]
+                model = train_model(rows, select_from[names[0]], reg, subspace, tiles)
+                proba[i] = posterior_row(model, query, classes, tiles if test_tiles else None)
+            for name in names:
+                selected[name] = selected.get(name, 0) + 1
             continue
         model = fit_qda(reg, *with_tiles(X[train], y[train], np.asarray(ids)[train], tiles, used), notes, subspace)
         if list(model.classes_) != classes:
