@@ -20,7 +20,8 @@ def test_the_report_gives_each_source_its_own_count_and_a_dash_where_unscored():
     row = {"set": "held-out", "experiment": "5 classes", "n": 30, "correct": 27, "accuracy": 0.9, "wilson_low": 0.744,
            "wilson_high": 0.965, "chance": 0.2, "folds_chose": "photo_structure 30",
            "auto_fitted_correct": 21, "auto_fitted_n": 30, "auto_fitted_accuracy": 0.7,
-           "auto_photo_correct": 0, "auto_photo_n": 0, "auto_photo_accuracy": float("nan")}
+           "auto_photo_correct": 0, "auto_photo_n": 0, "auto_photo_accuracy": float("nan"),
+           "vote_fitted_correct": 24, "vote_fitted_n": 30, "vote_fitted_accuracy": 0.8}
     text = cs.report(pd.DataFrame([row]), {"feature_set": "auto", "subspace": "discriminant", "reg": "auto"})
-    assert "| held-out | 5 classes | 90.0% (27/30) | 74.4-96.5% | 20.0% | photo_structure 30 | 70.0% (21/30) | - |" in text
-    assert [s.name for s in cs.SOURCE_SETS] == ["auto_fitted", "auto_photo"]
+    assert "| held-out | 5 classes | 90.0% (27/30) | 74.4-96.5% | 20.0% | photo_structure 30 | 70.0% (21/30) | - | 80.0% (24/30) |" in text
+    assert [s.name for s in cs.SOURCE_SETS] == ["auto_fitted", "auto_photo", "vote_fitted"]

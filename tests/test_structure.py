@@ -413,7 +413,7 @@ def test_nested_selection_picks_the_informative_set_inside_every_fold():
 
 
 def test_the_vote_averages_every_candidates_posteriors_in_every_fold():
-    from clothscope.classify.loocv import loocv, posterior_row
+    from clothscope.classify.loocv import class_posteriors, loocv
     from clothscope.classify.model import train_model
 
     rng = np.random.default_rng(2)
@@ -423,7 +423,7 @@ def test_the_vote_averages_every_candidates_posteriors_in_every_fold():
     result = loocv(table, [], select_from=candidates, vote=True)
     assert result.selected == {"noise": 18, "profile": 18} and result.accuracy > 0.9
     rows, query = table.iloc[1:], table.iloc[[0]]
-    by_hand = np.mean([posterior_row(train_model(rows, candidates[name]), query, ["a", "b", "c"], None)
+    by_hand = np.mean([class_posteriors(train_model(rows, candidates[name]), query, ["a", "b", "c"], None)[0]
                        for name in ("noise", "profile")], axis=0)
     assert np.allclose(result.predictions.iloc[0][["p_a", "p_b", "p_c"]].to_numpy(float), by_hand)
     assert np.isfinite(result.predictions[["p_a", "p_b", "p_c"]].to_numpy(float)).all()

@@ -43,6 +43,7 @@ from harness import ROOT, publish, run_tables, snakemake, write_sheet
 from record_candidates import PREFER_CHOICES
 
 from clothscope.classify.feature_sets import (
+    CANDIDATE_GROUPS,
     FEATURE_SETS,
     auto_candidates,
     classifier_candidates,
@@ -50,7 +51,7 @@ from clothscope.classify.feature_sets import (
     joined_features,
     joined_tiles,
 )
-from clothscope.classify.loocv import Choice, choose_columns
+from clothscope.classify.loocv import Choice, choose_columns, voted_posteriors
 from clothscope.classify.model import predict, train_model
 from clothscope.core.config import schema_defaults
 from clothscope.core.imageio import decode_image, linear_to_srgb, write_png
@@ -60,7 +61,7 @@ from clothscope.evaluate.invariance import PHOTO_TRANSFORMS
 PAIRS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet")
                  for d in ("red", "navy"))
 #: feature sets whose invariance is measured (the sources both exist for transformed photos)
-SETS = ("record", "auto_fitted", "texture_brdf_fitted", "structure_brdf_fitted", "paper_fitted", "auto_photo", "lbp_photo",
+SETS = ("record", "auto_fitted", "vote_fitted", "texture_brdf_fitted", "structure_brdf_fitted", "paper_fitted", "auto_photo", "lbp_photo",
         "structure_photo", "photo_plus_brdf")
 #: the feature set standing for the classifier of record's sources (fitted maps, the photo beside them)
 RECORD_SOURCES = "fitted_plus_photo"
@@ -84,13 +85,30 @@ def transformed_sheet(sheet: pd.DataFrame, out: Path) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=sheet.columns)
 
 
-def candidates_of(feature_set: str, columns: list[str], settings: dict) -> dict[str, list[str]]:
-    """The column sets a model of ``feature_set`` chooses from (one set unless it is ``auto`` or ``record``)."""
+def candidates_of(feature_set: str, columns: list[str], settings: dict) -> tuple[dict[str, list[str]], bool]:
+    """The column sets a model of ``feature_set`` chooses from (one set unless it is ``auto``, ``vote`` or ``record``),
+    and whether their posteriors are averaged (``vote``) instead."""
     if feature_set == "record":
-        return classifier_candidates(settings["feature_set"], "fitted", columns)
+        return classifier_candidates(settings["feature_set"], "fitted", columns), False
     spec = next(s for s in FEATURE_SETS if s.name == feature_set)
-    auto = [source for source, group in spec.parts if group == "auto"]
-    return auto_candidates(columns, auto[0]) if auto else {feature_set: columns}
+    pooled = [(source, group) for source, group in spec.parts if group in CANDIDATE_GROUPS]
+    if not pooled:
+        return {feature_set: columns}, False
+    return auto_candidates(columns, pooled[0][0]), pooled[0][1] == "vote"
+
+
+def view_predictions(others: pd.DataFrame, views: pd.DataFrame, candidates: dict[str, list[str]], vote: bool,
+                     settings: dict, tiles: pd.DataFrame | None, scored_tiles: pd.DataFrame | None) -> list[str]:
+    """The classes a model trained on ``others`` predicts for the rows of ``views``: the mean posterior of every
+    candidate's QDA (``vote``), or the QDA of the candidate :func:`choose_columns` picks."""
+    reg, subspace = settings["reg"], settings["subspace"]
+    if vote:
+        classes = sorted(others["fabric_class"].astype(str).unique())
+        proba, _ = voted_posteriors(others, views, candidates, classes, reg, subspace, tiles, scored_tiles)
+        return [classes[k] for k in proba.argmax(axis=1)]
+    chosen = choose_columns(others, candidates, reg, subspace, tiles, choice=Choice.from_config(settings["choice"]))[0]
+    model = train_model(others, candidates[chosen], reg, subspace, tiles)
+    return list(predict(model, views, scored_tiles)["predicted_class"])
 
 
 def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], transformed: dict[str, pd.DataFrame],
@@ -109,19 +127,17 @@ def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], tr
     usable_now = set(common_images({s: transformed[s] for s in spec.sources}))
     ok = {t: [i for i in images if f"{i}__{t}" in usable_now] for t in PHOTO_TRANSFORMS}
     t_frame, _ = joined_features(spec, transformed, [f"{i}__{t}" for t in PHOTO_TRANSFORMS for i in ok[t]])
-    reg, subspace = settings["reg"], settings["subspace"]
-    candidates = candidates_of(feature_set, columns, settings)
+    candidates, vote = candidates_of(feature_set, columns, settings)
     changed, wrong = dict.fromkeys(PHOTO_TRANSFORMS, 0), dict.fromkeys(PHOTO_TRANSFORMS, 0)
     for original in dict.fromkeys(i for t in PHOTO_TRANSFORMS for i in ok[t]):
         others = frame[frame["image_id"] != original]
-        chosen = choose_columns(others, candidates, reg, subspace, tiles, choice=Choice.from_config(settings["choice"]))[0]
-        model = train_model(others, candidates[chosen], reg, subspace, tiles)
-        for transform in (t for t in PHOTO_TRANSFORMS if original in ok[t]):
-            pair = pd.concat([frame[frame["image_id"] == original],
-                              t_frame[t_frame["image_id"] == f"{original}__{transform}"]], ignore_index=True)
-            before, after = predict(model, pair, scored_tiles)["predicted_class"]
+        transforms = [t for t in PHOTO_TRANSFORMS if original in ok[t]]
+        views = pd.concat([frame[frame["image_id"] == original],
+                           *(t_frame[t_frame["image_id"] == f"{original}__{t}"] for t in transforms)], ignore_index=True)
+        before, *afters = view_predictions(others, views, candidates, vote, settings, tiles, scored_tiles)
+        for transform, after in zip(transforms, afters):
             changed[transform] += int(before != after)
-            wrong[transform] += int(after != pair["fabric_class"].iloc[0])
+            wrong[transform] += int(after != views["fabric_class"].iloc[0])
     return [{"feature_set": feature_set, "transform": t, "n": len(ok[t]), "changed": changed[t],
              "change_rate": changed[t] / len(ok[t]) if ok[t] else 0.0, "wrong_after": wrong[t],
              "not_usable": len(images) - len(ok[t])} for t in PHOTO_TRANSFORMS]

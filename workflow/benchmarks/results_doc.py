@@ -186,6 +186,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1158", "holdout_1158", "holdout"),
         rendered_run("held-out 1162", "holdout_1162", "holdout"),
         rendered_run("held-out 1164", "holdout_1164", "holdout"),
+        rendered_run("held-out 1166", "holdout_1166", "holdout"),
         fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
@@ -719,7 +720,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Spectral peaks found in maps without threads", ("bench/noise_peaks.md",), f"{py}/noise_peaks.py"),
         BenchmarkReport("The paper's class subsets: the classifier of record, the fitted maps alone, the photo alone",
                         ("bench/class_subsets.md",),
-                        f"{py}/class_subsets.py --holdout results/holdout_1162/run results/holdout_1164/run"),
+                        f"{py}/class_subsets.py --holdout results/holdout_1162/run results/holdout_1164/run "
+                        "results/holdout_1166/run"),
         BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf"),
         BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),

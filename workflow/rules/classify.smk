@@ -65,7 +65,7 @@ rule feature_sets:
         reg=config["classify"]["reg"],
         subspace=config["classify"]["subspace"],
         test_tiles=config["classify"]["test_tiles"],
-        fitted_set=f"auto_{config['features']['normal_source']}",
+        fitted_set=headline_set(config["features"]["normal_source"]),
     script:
         "../scripts/feature_sets.py"
 

@@ -88,6 +88,7 @@ from pathlib import Path
 
 from clothscope.features.sources import NORMAL_SOURCES
 from clothscope.features.table import row_settings
+from clothscope.classify.feature_sets import headline_set
 from clothscope.classify.paper_tables import PAPER_EXPERIMENTS
 from clothscope.core.truth import truth_paths
 

@@ -136,6 +136,14 @@ FEATURE_SETS = (
     FeatureSet("structure_truth", "structure descriptor of the true relief alone (no BRDF)", (("truth", "structure"),)),
     FeatureSet("structure_brdf_truth", "structure descriptor of the true relief + true BRDF", (("truth", "structure_brdf"),)),
 )
+
+
+def headline_set(source: str) -> str:
+    """The feature set of ``source`` that the report's first line and each classifier's summary set against the photo:
+    the vote over its column sets (docs/design.md, "Voting over the candidate sets instead of choosing one")."""
+    return f"vote_{source}"
+
+
 #: Accuracy (a fraction) within which :func:`relief_line` counts a set as keeping what the true relief holds.
 RELIEF_MARGIN = 0.10
 

@@ -20,7 +20,13 @@ from typing import Any
 import pandas as pd
 
 from clothscope import __version__
-from clothscope.classify.feature_sets import classifier_candidates, inverse_rendering_gain, joined_table, joined_tiles
+from clothscope.classify.feature_sets import (
+    classifier_candidates,
+    headline_set,
+    inverse_rendering_gain,
+    joined_table,
+    joined_tiles,
+)
 from clothscope.classify.loocv import Choice, choose_columns, loocv
 from clothscope.classify.model import predict, save_model, save_untrained, train_model
 from clothscope.classify.outputs import (
@@ -61,7 +67,7 @@ def versus_photo_line(comparison_csv: str | os.PathLike[str] | None, source: str
         return "This classifier reads the photo alone (no inverse rendering)."
     if not comparison_csv:
         return "Inverse rendering against the photo alone: not measured (results/reports/feature_sets.md not built)."
-    return inverse_rendering_gain(pd.read_csv(comparison_csv), f"auto_{source}")
+    return inverse_rendering_gain(pd.read_csv(comparison_csv), headline_set(source))
 
 
 def write_summary(reports_dir: str | os.PathLike[str], title: str, feature_set: str, accuracy_line: str, versus: str) -> None:

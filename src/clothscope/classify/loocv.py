@@ -240,18 +240,20 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
     return best, scores
 
 
-def posterior_row(model: Any, query: pd.DataFrame, classes: list[str], tiles: pd.DataFrame | None) -> np.ndarray:
-    """The posteriors over ``classes`` of the one row ``query`` under a trained model (``tiles``: :func:`predict`)."""
+def class_posteriors(model: Any, queries: pd.DataFrame, classes: list[str], tiles: pd.DataFrame | None) -> np.ndarray:
+    """(rows, classes) posteriors of ``queries`` under a trained model whose classes are ``classes`` (``tiles``:
+    :func:`predict`)."""
     if model.classes != classes:
         raise ValueError(f"a fold's model has classes {model.classes}, not {classes}")
-    return predict(model, query, tiles)[[posterior_column(c) for c in classes]].to_numpy(float)[0]
+    return predict(model, queries, tiles)[[posterior_column(c) for c in classes]].to_numpy(float)
 
 
-def voted_posteriors(rows: pd.DataFrame, query: pd.DataFrame, candidates: dict[str, list[str]], classes: list[str],
+def voted_posteriors(rows: pd.DataFrame, queries: pd.DataFrame, candidates: dict[str, list[str]], classes: list[str],
                      reg: float | str, subspace: str, tiles: pd.DataFrame | None,
-                     test_tiles: bool) -> tuple[np.ndarray, list[str]]:
-    """The mean posterior over ``classes`` of the one row ``query`` under a QDA of each distinct candidate set
-    trained on ``rows`` (:func:`_distinct_candidates`), and the names of the sets that voted.
+                     query_tiles: pd.DataFrame | None) -> tuple[np.ndarray, list[str]]:
+    """(rows, classes): the mean posteriors of ``queries`` under a QDA of each distinct candidate set trained on
+    ``rows`` and the ``tiles`` of those images (:func:`_distinct_candidates`), and the names of the sets that voted.
+    ``query_tiles``: each query is scored with its own tiles from there too (:func:`predict`).
 
     Every set votes with equal weight, so nothing is chosen by a score. A set that
     cannot be trained (no column varies) does not vote.
@@ -261,14 +263,14 @@ def voted_posteriors(rows: pd.DataFrame, query: pd.DataFrame, candidates: dict[s
     ValueError
         When no candidate can be trained.
     """
-    total, voters, problems = np.zeros(len(classes)), [], []
+    total, voters, problems = np.zeros((len(queries), len(classes))), [], []
     for name, columns in _distinct_candidates(rows, candidates).items():
         try:
             model = train_model(rows, columns, reg, subspace, tiles)
         except ValueError as err:
             problems.append(f"{name}: {str(err).splitlines()[0]}")
             continue
-        total += posterior_row(model, query, classes, tiles if test_tiles else None)
+        total += class_posteriors(model, queries, classes, query_tiles)
         voters.append(name)
     if not voters:
         raise ValueError(f"no candidate feature set could be trained ({'; '.join(problems)})")
@@ -341,11 +343,13 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         if select_from:
             rows, query = labelled.iloc[np.flatnonzero(train)], labelled.iloc[[i]]
             if vote:
-                proba[i], names = voted_posteriors(rows, query, select_from, classes, reg, subspace, tiles, test_tiles)
+                voted, names = voted_posteriors(rows, query, select_from, classes, reg, subspace, tiles,
+                                                tiles if test_tiles else None)
+                proba[i] = voted[0]
             else:
                 names = [choose_columns(rows, select_from, reg, subspace, tiles, score, choice)[0]]
                 model = train_model(rows, select_from[names[0]], reg, subspace, tiles)
-                proba[i] = posterior_row(model, query, classes, tiles if test_tiles else None)
+                proba[i] = class_posteriors(model, query, classes, tiles if test_tiles else None)[0]
             for name in names:
                 selected[name] = selected.get(name, 0) + 1
             continue
