@@ -61,8 +61,8 @@ from clothscope.evaluate.invariance import PHOTO_TRANSFORMS
 PAIRS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet")
                  for d in ("red", "navy"))
 #: feature sets whose invariance is measured (the sources both exist for transformed photos)
-SETS = ("record", "auto_fitted", "vote_fitted", "texture_brdf_fitted", "structure_brdf_fitted", "paper_fitted", "auto_photo", "lbp_photo",
-        "structure_photo", "photo_plus_brdf")
+SETS = ("record", "auto_fitted", "vote_fitted", "texture_brdf_fitted", "structure_brdf_fitted", "paper_fitted", "auto_photo",
+        "lbp_photo", "structure_photo", "photo_plus_brdf")
 #: the feature set standing for the classifier of record's sources (fitted maps, the photo beside them)
 RECORD_SOURCES = "fitted_plus_photo"
 
