@@ -412,6 +412,13 @@ def test_nested_selection_picks_the_informative_set_inside_every_fold():
     assert result.selected.get("profile", 0) >= 16 and result.accuracy > 0.9
 
 
+def test_a_feature_set_says_which_source_it_pools_and_whether_it_votes():
+    sets = {s.name: s for s in FEATURE_SETS}
+    assert sets["vote_fitted"].pooled() == ("fitted", True)
+    assert sets["auto_photo"].pooled() == ("photo", False)
+    assert sets["lbp_photo"].pooled() is None
+
+
 def test_the_vote_averages_every_candidates_posteriors_in_every_fold():
     from clothscope.classify.loocv import class_posteriors, loocv
     from clothscope.classify.model import train_model

@@ -43,7 +43,6 @@ from harness import ROOT, publish, run_tables, snakemake, write_sheet
 from record_candidates import PREFER_CHOICES
 
 from clothscope.classify.feature_sets import (
-    CANDIDATE_GROUPS,
     FEATURE_SETS,
     auto_candidates,
     classifier_candidates,
@@ -90,11 +89,8 @@ def candidates_of(feature_set: str, columns: list[str], settings: dict) -> tuple
     and whether their posteriors are averaged (``vote``) instead."""
     if feature_set == "record":
         return classifier_candidates(settings["feature_set"], "fitted", columns), False
-    spec = next(s for s in FEATURE_SETS if s.name == feature_set)
-    pooled = [(source, group) for source, group in spec.parts if group in CANDIDATE_GROUPS]
-    if not pooled:
-        return {feature_set: columns}, False
-    return auto_candidates(columns, pooled[0][0]), pooled[0][1] == "vote"
+    pooled = next(s for s in FEATURE_SETS if s.name == feature_set).pooled()
+    return ({feature_set: columns}, False) if pooled is None else (auto_candidates(columns, pooled[0]), pooled[1])
 
 
 def view_predictions(others: pd.DataFrame, views: pd.DataFrame, candidates: dict[str, list[str]], vote: bool,

@@ -109,6 +109,12 @@ class FeatureSet:
     def photo_only(self) -> bool:
         return self.sources == ("photo",)
 
+    def pooled(self) -> tuple[str, bool] | None:
+        """The source whose :data:`AUTO_GROUPS` this set pools (a :data:`CANDIDATE_GROUPS` part), and whether it
+        votes over them rather than choosing one; None for a set of fixed columns."""
+        part = next(((source, group) for source, group in self.parts if group in CANDIDATE_GROUPS), None)
+        return None if part is None else (part[0], part[1] == "vote")
+
 
 FEATURE_SETS = (
     FeatureSet("paper_fitted", "the paper's features (Algorithm 2 + BRDF) on fitted normal maps", (("fitted", "paper"),)),
@@ -188,10 +194,10 @@ def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], 
     image is scored with its tiles (:func:`clothscope.classify.loocv.loocv`)."""
     try:
         frame, columns = joined_features(feature_set, tables, images)
-        pooled = [(source, group) for source, group in feature_set.parts if group in CANDIDATE_GROUPS]
+        pooled = feature_set.pooled()
+        voting = pooled is not None and pooled[1]
         tiles = joined_tiles({source: tables[source] for source in feature_set.sources}, tile_tables)
-        voting = bool(pooled) and pooled[0][1] == "vote"
-        result = loocv(frame, columns, reg, select_from=auto_candidates(columns, pooled[0][0]) if pooled else None,
+        result = loocv(frame, columns, reg, select_from=auto_candidates(columns, pooled[0]) if pooled else None,
                        subspace=subspace, tiles=tiles, test_tiles=test_tiles, vote=voting)
     except (KeyError, ValueError) as err:
         return _unscored_row(feature_set, str(err)), None
