@@ -85,7 +85,7 @@ def test_predict_without_a_model_says_how_to_make_one(tmp_path, capsys):
 def test_model_sources_puts_the_models_own_source_first(photo_model):
     model = load_model(photo_model)
     assert model_sources(model) == ["photo"]
-    model.feature_columns = ["photo.s_a", "fitted.s_a"]
+    next(iter(model.members.values())).feature_columns = ["photo.s_a", "fitted.s_a"]
     model.metadata["metadata"]["normal_source"] = "fitted"
     assert model_sources(model) == ["fitted", "photo"]
 
@@ -110,7 +110,8 @@ def tiny_fit_model(photo_model, folder, source: str):
             "normals": {"resolution": 64, "texture": 64, "spp": 1, "spp_grad": 1, "iterations": 2, "joint_iterations": 2}}
     for stage, knobs in tiny.items():
         settings["fit"][stage].update(knobs)
-    model.feature_columns = [c.replace("photo.", f"{source}.") for c in model.feature_columns]
+    for member in model.members.values():
+        member.feature_columns = [c.replace("photo.", f"{source}.") for c in member.feature_columns]
     save_model(model, folder, {**model.metadata["metadata"], "normal_source": source, "settings": settings})
     return folder
 

@@ -436,6 +436,35 @@ def test_the_vote_averages_every_candidates_posteriors_in_every_fold():
     assert np.isfinite(result.predictions[["p_a", "p_b", "p_c"]].to_numpy(float)).all()
 
 
+def test_the_record_can_vote_and_its_model_for_new_photos_holds_every_set_that_voted(tmp_path):
+    """``classify.feature_set: vote``: LOOCV averages the candidates' QDAs, and the saved model does the same."""
+    from clothscope.classify.feature_sets import joined_table
+    from clothscope.classify.job import classify_job
+    from clothscope.classify.model import load_model, predict
+
+    rng = np.random.default_rng(4)
+    paths = {}
+    for source in ("fitted", "photo"):
+        table = _table(source, rng, True).assign(normal_source=source, mitsuba_variant="llvm_ad_rgb", config_hash="h")
+        table.loc[table["image_id"] == "c5", "fabric_class"] = ""  # a query
+        paths[source] = tmp_path / f"{source}.parquet"
+        table.to_parquet(paths[source])
+    out = classify_job(paths["fitted"], "config/physics.yaml", "fitted", "auto", tmp_path / "reports", tmp_path / "model",
+                       feature_set="vote", photo_table_path=paths["photo"], subspace="discriminant")
+    assert out["n"] == 17 and out["accuracy"] > 0.9
+    model = load_model(tmp_path / "model")
+    assert len(model.members) > 3 and {"structure_brdf", "photo_profile"} <= set(model.members)
+    assert model.metadata["metadata"]["feature_set"] == "vote" and model.metadata["metadata"]["choice"] is None
+    summary = (tmp_path / "reports" / "summary.md").read_text()
+    assert "Sets that voted, folds: " in summary and "The model for new photos averages `structure_brdf`" in summary
+    joined = joined_table({s: pd.read_parquet(p) for s, p in paths.items()})
+    query = predict(model, joined[joined["image_id"] == "c5"])
+    by_member = [predict(member, joined[joined["image_id"] == "c5"])[["p_a", "p_b", "p_c"]].to_numpy(float)
+                 for member in model.members.values()]
+    assert np.allclose(query[["p_a", "p_b", "p_c"]].to_numpy(float), np.mean(by_member, axis=0))
+    assert query["predicted_class"].item() == "c"
+
+
 def test_joined_table_marks_an_image_unusable_when_any_source_fails():
     from clothscope.classify.feature_sets import classifier_candidates, joined_table
 
@@ -458,7 +487,7 @@ def test_joined_table_marks_an_image_unusable_when_any_source_fails():
     from clothscope.core.config import config_schema
 
     forcible = config_schema()["properties"]["classify"]["properties"]["feature_set"]["enum"]
-    assert set(forcible) == {"auto", *sets}  # every candidate can be forced, and nothing else
+    assert set(forcible) == {"auto", "vote", *sets}  # every candidate can be forced, and nothing else
     assert classifier_candidates("photo_lbp", "fitted", joined.columns) == {"photo_lbp": sets["photo_lbp"]}
 
 

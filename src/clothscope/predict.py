@@ -19,7 +19,7 @@ from typing import Any
 import pandas as pd
 
 from clothscope.classify.feature_sets import joined_table, joined_tiles
-from clothscope.classify.model import QdaModel, predict
+from clothscope.classify.model import VotingModel, predict
 from clothscope.classify.rows import posterior_column
 from clothscope.core.atomic import write_json
 from clothscope.core.config import schema_defaults
@@ -50,7 +50,7 @@ class Prediction:
     reason: str = ""
 
 
-def model_sources(model: QdaModel) -> list[str]:
+def model_sources(model: VotingModel) -> list[str]:
     """Feature sources the model's columns (``<source>.<column>``) come from, its own normal source first."""
     own = str(model.metadata.get("metadata", {}).get("normal_source", ""))
     prefixes = sorted({c.split(".", 1)[0] for c in model.feature_columns})
@@ -61,12 +61,12 @@ def model_sources(model: QdaModel) -> list[str]:
 LEGACY = {"prepare": {"scale": "frame"}, "fit": {"normals": {"colour_model": "one_colour"}}, "features": {"fitted_field": "relief", "period_source": "field"}}
 
 
-def scored_with_tiles(model: QdaModel) -> bool:
+def scored_with_tiles(model: VotingModel) -> bool:
     """Whether the model scores an image with its tiles (``classify.test_tiles: mean``; older records: no)."""
     return model.metadata.get("metadata", {}).get("test_tiles", "none") == "mean"
 
 
-def training_settings(model: QdaModel) -> dict[str, Any]:
+def training_settings(model: VotingModel) -> dict[str, Any]:
     """The prepare, fit and features settings (and Mitsuba variant) the model's training images were processed with.
 
     A key the record lacks (it predates the key) takes its :data:`LEGACY` value, else its schema default.
@@ -106,7 +106,7 @@ def _fit(prepared: Path, work: Path, settings: dict[str, Any], threads: int, log
     return work / "normals"
 
 
-def predict_photo(photo: str, image_id: str, model: QdaModel, physics_table: dict[str, PhysicsEntry], out: Path,
+def predict_photo(photo: str, image_id: str, model: VotingModel, physics_table: dict[str, PhysicsEntry], out: Path,
                   threads: int, log: logging.Logger, step: Callable[[str], None], render: bool = False) -> Prediction:
     """Prepare, fit (when the model needs it, or ``render``), featurise and classify one photo into ``out/<image_id>/``.
 

@@ -17,16 +17,18 @@ for the transformed photo than for the original. The model is the configured
 classifier (``classify.reg``, ``classify.subspace`` and ``classify.test_tiles``); an ``auto`` set, and
 ``record`` (the classifier of record: ``classify.feature_set`` on fitted maps
 with the photo beside them), choose their columns on those other images as the
-``classify`` rule does.
+``classify`` rule does; ``record_vote`` is the record with ``classify.feature_set: vote``.
 Needs the main run's ``fitted`` and ``photo`` feature tables.
 
     .venv/bin/python workflow/benchmarks/invariance_fitted.py [--images a,b|all] [--out results/bench/invariance] [--features-only]
-        [--overlay config/overlays/NAME.yaml] [--prefer SET ...]
+        [--overlay config/overlays/NAME.yaml] [--prefer SET ...] [--scores-only]
 
 ``--features-only`` reuses the run folder's fits and recomputes only the
-feature rows (after a change to the features, not to the fit). ``--overlay``
+feature rows (after a change to the features, not to the fit); ``--scores-only``
+runs nothing and scores the run folder's feature tables as they are (after a
+change to the classifier alone). ``--overlay``
 runs the transformed photos with that config overlay (the main run's feature
-tables, which train the models, must have been made with it too). ``--prefer SET ...`` adds rows for the record
+tables, which train the models, must have been made with it too). ``--prefer SET ...`` adds rows for the record choosing one set (``auto``)
 with each of those ``classify.choice.prefer`` values.
 
 Writes ``<out>/invariance_fitted.csv`` (one row per feature set and
@@ -60,10 +62,12 @@ from clothscope.evaluate.invariance import PHOTO_TRANSFORMS
 PAIRS = ",".join(f"{c}_{d}" for c in ("broadcloth", "canvas", "satin", "chiffon", "cotton_gauze", "knit_jersey", "velvet")
                  for d in ("red", "navy"))
 #: feature sets whose invariance is measured (the sources both exist for transformed photos)
-SETS = ("record", "auto_fitted", "vote_fitted", "texture_brdf_fitted", "structure_brdf_fitted", "paper_fitted", "auto_photo",
+SETS = ("record", "record_vote", "auto_fitted", "vote_fitted", "texture_brdf_fitted", "structure_brdf_fitted", "paper_fitted", "auto_photo",
         "lbp_photo", "structure_photo", "photo_plus_brdf")
 #: the feature set standing for the classifier of record's sources (fitted maps, the photo beside them)
 RECORD_SOURCES = "fitted_plus_photo"
+#: the classifier of record as configured (None: ``classify.feature_set``) and voting over its candidates
+RECORDS = {"record": None, "record_vote": "vote"}
 
 #: decode_image limits: the config schema's prepare defaults
 DECODE = tuple(schema_defaults()["prepare"][k] for k in ("min_input_px", "max_megapixels", "clip_threshold"))
@@ -87,8 +91,9 @@ def transformed_sheet(sheet: pd.DataFrame, out: Path) -> pd.DataFrame:
 def candidates_of(feature_set: str, columns: list[str], settings: dict) -> tuple[dict[str, list[str]], bool]:
     """The column sets a model of ``feature_set`` chooses from (one set unless it is ``auto``, ``vote`` or ``record``),
     and whether their posteriors are averaged (``vote``) instead."""
-    if feature_set == "record":
-        return classifier_candidates(settings["feature_set"], "fitted", columns), False
+    if feature_set in RECORDS:
+        configured = RECORDS[feature_set] or settings["feature_set"]
+        return classifier_candidates(configured, "fitted", columns), configured == "vote"
     pooled = next(s for s in FEATURE_SETS if s.name == feature_set).pooled()
     return ({feature_set: columns}, False) if pooled is None else (auto_candidates(columns, pooled[0]), pooled[1])
 
@@ -113,12 +118,12 @@ def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], tr
     """One row per transformation: train on all other originals (and their tiles), once per original, predict the
     original and each of its transformed photos (each with its own tiles where ``classify.test_tiles`` is ``mean``);
     count changes."""
-    spec = next(s for s in FEATURE_SETS if s.name == (RECORD_SOURCES if feature_set == "record" else feature_set))
+    spec = next(s for s in FEATURE_SETS if s.name == (RECORD_SOURCES if feature_set in RECORDS else feature_set))
     tiles = joined_tiles({s: originals[s] for s in spec.sources}, tile_tables)
     scored_tiles = None if settings["test_tiles"] != "mean" else pd.concat(
         [tiles, joined_tiles({s: transformed[s] for s in spec.sources}, transformed_tiles)])
     frame, columns = joined_features(spec, originals, common_images({s: originals[s] for s in spec.sources}))
-    if feature_set == "record":
+    if feature_set in RECORDS:
         columns = [c for c in frame.columns if c.split(".", 1)[0] in spec.sources]
     usable_now = set(common_images({s: transformed[s] for s in spec.sources}))
     ok = {t: [i for i in images if f"{i}__{t}" in usable_now] for t in PHOTO_TRANSFORMS}
@@ -144,6 +149,8 @@ def main() -> int:
     parser.add_argument("--images", default=PAIRS, help="comma-separated image ids, or 'all'")
     parser.add_argument("--out", default="results/bench/invariance")
     parser.add_argument("--features-only", action="store_true", help="reuse the run's fits; recompute the feature rows")
+    parser.add_argument("--scores-only", action="store_true",
+                        help="reuse the run's feature tables as they are (after a change to the classifier only)")
     parser.add_argument("--overlay", help="config overlay for the transformed photos' run (as the main run's)")
     parser.add_argument("--prefer", nargs="+", default=[], choices=PREFER_CHOICES,
                         help="also score the record with each of these classify.choice.prefer values")
@@ -155,7 +162,7 @@ def main() -> int:
     run = out / "run"
     reuse = ["--rerun-triggers", "mtime", "--forcerun", "features"] if args.features_only else []
     overlay = ["--configfile", "config/config.yaml", args.overlay] if args.overlay else []
-    seconds = snakemake([*overlay, "--config", f"samples={out / 'samples.tsv'}", f"results={run}", "--quiet", *reuse, "all", "--",
+    seconds = 0.0 if args.scores_only else snakemake([*overlay, "--config", f"samples={out / 'samples.tsv'}", f"results={run}", "--quiet", *reuse, "all", "--",
                          *(str(run / "features" / s / "table.parquet") for s in ("fitted", "photo"))])
     originals, tiles = run_tables(ROOT / "results")
     transformed, transformed_tiles = run_tables(run)
@@ -163,14 +170,15 @@ def main() -> int:
     rows = [row for f in SETS for row in changed_predictions(f, originals, transformed, images, settings, tiles,
                                                                transformed_tiles)]
     for prefer in args.prefer:
-        preferring = {**settings, "choice": {**settings["choice"], "prefer": prefer}}
-        rows += [{**row, "feature_set": f"record, prefer {prefer}"}
+        preferring = {**settings, "feature_set": "auto", "choice": {**settings["choice"], "prefer": prefer}}
+        rows += [{**row, "feature_set": f"record auto, prefer {prefer}"}
                  for row in changed_predictions("record", originals, transformed, images, preferring, tiles, transformed_tiles)]
     table = pd.DataFrame(rows)
+    how_run = ("earlier (its feature tables reused as they are, `--scores-only`" if args.scores_only
+               else f"in {seconds / 60:.1f} min (2 cores{', fits reused' if args.features_only else ''}")
     lines = ["# Invariance of predictions to the photo's rotation, zoom and colour (refitted)", "",
              f"{len(images)} images x {len(PHOTO_TRANSFORMS)} transformations, prepared, fitted and described by the "
-             f"workflow in {seconds / 60:.1f} min (2 cores{', fits reused' if args.features_only else ''}"
-             f"{f', overlay `{args.overlay}`' if args.overlay else ''}). "
+             f"workflow {how_run}{f', overlay `{args.overlay}`' if args.overlay else ''}). "
              f"Classifier: QDA, subspace `{settings['subspace']}`, shrinkage `{settings['reg']}`; `record` is "
              f"`{settings['feature_set']}` on fitted maps with the photo beside them (preferred set "
              f"`{settings['choice']['prefer']}`, or the one named). Changed: the model trained on every other original image "

@@ -1,7 +1,7 @@
 """Benchmark: the classifier of record with and without the photo's own column sets among its candidates.
 
     .venv/bin/python workflow/benchmarks/record_candidates.py RUN [RUN ...] [--name record_candidates]
-        [--ensemble K ... | --criterion NAME ... | --prefer SET ...]
+        [--ensemble K ... | --criterion NAME ... | --prefer SET ... | --vote]
 
 For each run folder, the fitted and photo feature tables are joined as the ``classify`` rule joins
 them, and the ``auto`` classifier of record is scored by the same LOOCV (a column set chosen inside
@@ -24,6 +24,9 @@ reproducible.
 ``tiebreak`` (accuracy, ties broken by ``logloss``) and ``repeated`` (accuracy over three
 repeats of the split). Measured against a rule written before scoring and rejected
 (``docs/design.md``).
+
+``--vote`` scores the record's ``auto`` choice against ``classify.feature_set: vote`` (the mean posterior
+of a QDA on every candidate set, nothing chosen; ``docs/design.md``, "The classifier of record, voting").
 
 ``--prefer SET ...`` scores the record with each ``classify.choice.prefer`` (``none``: the best inner
 accuracy; a candidate's name: that set unless the best beats it by the sign test of
@@ -59,7 +62,7 @@ def run_rows(run: Path) -> list[dict]:
     settings = classify_config()
     rows = []
     for label, candidates in zip(LISTS, (without, everything)):
-        result = record_loocv(ok, candidates, tiles, settings)
+        result = record_loocv(ok, candidates, tiles, settings, vote=False)
         chosen = ", ".join(f"{name} {count}" for name, count in sorted(result.selected.items(), key=lambda kv: -kv[1]))
         rows.append({"run": shown(run), "candidates": label,
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy, "folds_chose": chosen})
@@ -120,7 +123,7 @@ def criterion_rows(run: Path, criteria: list[str]) -> list[dict]:
     rows = []
     for criterion in criteria:
         result = record_loocv(ok, candidates, tiles, settings, score=partial(inner_score, criterion=criterion),
-                              choice=None)
+                              choice=None, vote=False)
         rows.append({"run": shown(run), "candidates": f"inner criterion: {criterion}"
                      + (" (the classifier of record)" if criterion == "accuracy" else ""),
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
@@ -137,9 +140,22 @@ def prefer_rows(run: Path, preferred: list[str], alphas: list[float] | None = No
     rows = []
     for prefer, alpha in ((p, a) for p in preferred for a in (levels[:1] if p == "none" else levels)):
         choice = Choice.from_config({**settings["choice"], "prefer": prefer, "alpha": alpha})
-        result = record_loocv(ok, candidates, tiles, settings, choice=choice)
+        result = record_loocv(ok, candidates, tiles, settings, choice=choice, vote=False)
         rows.append({"run": shown(run), "candidates": f"prefer {prefer}" + ("" if choice.prefer is None
                                                                              else f" (alpha {choice.alpha:g})"),
+                     "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
+                     "folds_chose": ", ".join(f"{n} {c}" for n, c in sorted(result.selected.items(), key=lambda kv: -kv[1]))})
+    return rows
+
+
+def vote_rows(run: Path) -> list[dict]:
+    """LOOCV of the classifier of record choosing one set per fold (``auto``) and averaging them all (``vote``)."""
+    ok, tiles, candidates = record_inputs(*run_tables(run), "auto")
+    settings = classify_config()
+    rows = []
+    for feature_set in ("auto", "vote"):
+        result = record_loocv(ok, candidates, tiles, settings, vote=feature_set == "vote")
+        rows.append({"run": shown(run), "candidates": f"feature_set: {feature_set}",
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
                      "folds_chose": ", ".join(f"{n} {c}" for n, c in sorted(result.selected.items(), key=lambda kv: -kv[1]))})
     return rows
@@ -158,14 +174,16 @@ def main() -> None:
                         help="score the record with each of these classify.choice.prefer values (none or a set's name)")
     parser.add_argument("--alpha", type=float, nargs="+", metavar="A",
                         help="with --prefer: at each of these classify.choice.alpha levels (default: the config's)")
+    parser.add_argument("--vote", action="store_true",
+                        help="score the record's auto choice against its vote over every candidate (feature_set: vote)")
     args = parser.parse_args()
     if args.alpha and (not args.prefer or not all(0.0 < a < 1.0 for a in args.alpha)):
         parser.error("--alpha needs --prefer and levels between 0 and 1")
     if args.ensemble and min(args.ensemble) < 1:
         parser.error("--ensemble sizes must be >= 1")
-    if sum(bool(option) for option in (args.ensemble, args.criterion, args.prefer)) > 1:
-        parser.error("give one of --ensemble, --criterion and --prefer")
-    rows_of = run_rows
+    if sum(bool(option) for option in (args.ensemble, args.criterion, args.prefer, args.vote)) > 1:
+        parser.error("give one of --ensemble, --criterion, --prefer and --vote")
+    rows_of = vote_rows if args.vote else run_rows
     if args.ensemble:
         rows_of = lambda run: ensemble_rows(run, sorted(set(args.ensemble)))  # noqa: E731
     elif args.criterion:
@@ -174,6 +192,7 @@ def main() -> None:
         rows_of = lambda run: prefer_rows(run, list(dict.fromkeys(args.prefer)), args.alpha)  # noqa: E731
     table = pd.DataFrame([row for run in args.runs for row in rows_of(ROOT / run)])
     how = ("posteriors of the best K candidates averaged in each fold" if args.ensemble
+           else "one set chosen inside each fold, or every candidate's posterior averaged" if args.vote
            else "column set chosen inside each fold" + (", by each inner criterion" if args.criterion else "")
            + (", by each preferred set" if args.prefer else ""))
     lines = [f"Classifier of record (LOOCV, {how}), by its candidate list:", "",

@@ -187,6 +187,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1162", "holdout_1162", "holdout"),
         rendered_run("held-out 1164", "holdout_1164", "holdout"),
         rendered_run("held-out 1166", "holdout_1166", "holdout"),
+        rendered_run("held-out 1167", "holdout_1167", "holdout"),
         fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
@@ -194,6 +195,7 @@ def workflow_runs(results: Path) -> list[Run]:
         fitted_field_run("three weaves 1161, fitted", "weaves_1161", "run"),
         fitted_field_run("three weaves 1163, fitted", "weaves_1163", "run"),
         fitted_field_run("microscope-like weaves 1165, fitted", "microscope_1165", "run"),
+        fitted_field_run("microscope-like weaves 1168, fitted", "microscope_1168", "run"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -671,6 +673,15 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/record_brdf_1164.md",),
                         f"{py}/record_candidates.py results/holdout_1164/run --prefer photo_structure_brdf "
                         "--name record_brdf_1164"),
+        BenchmarkReport("Classifier of record voting over its candidates, on the six sets looked at",
+                        ("bench/record_vote_looked.md",),
+                        f"{py}/record_candidates.py results results/holdout_1162/run results/holdout_1164/run "
+                        "results/holdout_1166/run results/weaves_1163/run results/microscope_1165/run --vote "
+                        "--name record_vote_looked"),
+        BenchmarkReport("Classifier of record voting over its candidates, two fresh sets (the rule's test)",
+                        ("bench/record_vote_fresh.md",),
+                        f"{py}/record_candidates.py results/holdout_1167/run results/microscope_1168/run --vote "
+                        "--name record_vote_fresh"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),

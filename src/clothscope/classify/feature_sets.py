@@ -451,7 +451,7 @@ def joined_tiles(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.Data
 
 
 def classifier_candidates(feature_set: str, maps: str, columns: list[str] | pd.Index) -> dict[str, list[str]]:
-    """Column sets of a joined table for one ``classify.feature_set`` (several for ``auto``).
+    """Column sets of a joined table for one ``classify.feature_set`` (several for ``auto`` and ``vote``).
 
     ``maps`` is the classifier's own source (``fitted``, ``truth`` or ``photo``);
     the photo sets need a ``photo`` source beside it.
@@ -462,7 +462,7 @@ def classifier_candidates(feature_set: str, maps: str, columns: list[str] | pd.I
         sets["plus_photo"] = sets["structure_brdf"] + sets["photo_structure"]
         sets |= {name: source_columns(columns, "photo", group) for name, group in PHOTO_GROUPS.items()}
         sets["photo_structure_brdf"] = sets["photo_structure"] + source_columns(columns, maps, "brdf")
-    if feature_set == "auto":
+    if feature_set in CANDIDATE_GROUPS:
         return sets
     if feature_set not in sets:
         raise ValueError(f"feature set {feature_set!r} needs sources this classifier does not have (it reads {maps}"

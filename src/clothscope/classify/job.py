@@ -27,8 +27,8 @@ from clothscope.classify.feature_sets import (
     joined_table,
     joined_tiles,
 )
-from clothscope.classify.loocv import Choice, choose_columns, loocv
-from clothscope.classify.model import predict, save_model, save_untrained, train_model
+from clothscope.classify.loocv import Choice, choose_columns, loocv, train_vote
+from clothscope.classify.model import VotingModel, as_voting, predict, save_model, save_untrained, train_model
 from clothscope.classify.outputs import (
     ACCURACY_FILE,
     CONFUSION_CSV_FILE,
@@ -75,6 +75,16 @@ def write_summary(reports_dir: str | os.PathLike[str], title: str, feature_set: 
     write_text(Path(reports_dir) / SUMMARY_FILE, f"# {title}\n\nFeature set: `{feature_set}`. {accuracy_line}\n\n{versus}\n")
 
 
+def all_labelled_model(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str, subspace: str,
+                       tiles: pd.DataFrame | None, choice: Choice | None, vote: bool) -> VotingModel:
+    """The model for new photos, on every labelled image: the vote of all ``candidates`` (``vote``), or the QDA of
+    the one :func:`choose_columns` picks (a single candidate: that one)."""
+    if vote:
+        return train_vote(table, candidates, reg, subspace, tiles)
+    chosen = choose_columns(table, candidates, reg, subspace, tiles, choice=choice)[0]
+    return as_voting(train_model(table, candidates[chosen], reg, subspace, tiles), chosen)
+
+
 def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.PathLike[str], source: str, reg: float | str,
                  reports_dir: str | os.PathLike[str], model_dir: str | os.PathLike[str],
                  log: Any = None, *, feature_set: str,
@@ -103,7 +113,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         Receives the all-labelled model as data (:func:`clothscope.classify.model.save_model`).
     feature_set
         Columns the classifier reads (:func:`clothscope.classify.feature_sets.classifier_candidates`);
-        ``auto`` chooses among them inside each LOOCV fold, and for the model on all labelled images.
+        ``auto`` chooses among them inside each LOOCV fold, and for the model on all labelled images;
+        ``vote`` averages the posteriors of a QDA on each of them, in each fold and in the model.
     comparison_csv
         ``feature_sets.csv``, for the line on what the fit bought over the photo alone (``summary.md``).
     photo_table_path
@@ -132,14 +143,14 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     labelled, queries = split_labelled(ok)
     provenance = _provenance(table)
     problems = []
+    voting = feature_set == "vote"
     try:
         result = loocv(ok, [], reg, select_from=candidates, subspace=subspace, tiles=tiles, choice=choice,
-                       test_tiles=test_tiles)
+                       test_tiles=test_tiles, vote=voting)
     except ValueError as err:  # too few labelled classes or images: no scores, the run goes on
         result, problems = None, [f"LOOCV not run: {str(err).splitlines()[0]}"]
     try:
-        chosen = choose_columns(ok, candidates, reg, subspace, tiles, choice=choice)[0]
-        model = train_model(ok, candidates[chosen], reg, subspace, tiles)
+        model = all_labelled_model(ok, candidates, reg, subspace, tiles, choice, voting)
     except ValueError as err:
         model = None
         problems.append(f"no model trained: {str(err).splitlines()[0]}")
@@ -155,15 +166,19 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         _write_unscored(reports_dir, source, problems, query_predictions)
         accuracy_line = "; ".join(problems) + "."
     if result is not None and result.selected:
-        accuracy_line += " Sets the folds chose: " + ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1])) + "."
-        if choice is not None and choice.prefer:
+        counts = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
+        accuracy_line += f" {'Sets that voted, folds' if voting else 'Sets the folds chose'}: {counts}."
+        if choice is not None and choice.prefer and not voting:
             accuracy_line += f" Preferred set `{choice.prefer}`, left only where a sign test at alpha {choice.alpha:g} said so."
     if model is not None:
-        accuracy_line += f" The model for new photos uses `{chosen}`."
+        accuracy_line += (f" The model for new photos {'averages' if voting else 'uses'} "
+                          + ", ".join(f"`{name}`" for name in model.members) + ".")
     write_summary(reports_dir, title, feature_set, accuracy_line, versus_photo_line(comparison_csv, source))
     if model is not None:
-        save_model(model, model_dir, metadata={"normal_source": source, "feature_set": feature_set, "chosen_set": chosen,
-                                                "choice": {"prefer": choice.prefer, "alpha": choice.alpha} if choice else None,
+        save_model(model, model_dir, metadata={"normal_source": source, "feature_set": feature_set,
+                                                "chosen_set": "+".join(model.members),
+                                                "choice": {"prefer": choice.prefer, "alpha": choice.alpha}
+                                                if choice and not voting else None,
                                                 "test_tiles": "mean" if test_tiles else "none",
                                                 "feature_table": str(table_path), **provenance,
                                                 "n_labelled": int(len(labelled)), "settings": dict(settings or {}),

@@ -23,7 +23,7 @@ import pandas as pd
 from scipy.stats import binomtest
 from sklearn.model_selection import RepeatedStratifiedKFold, StratifiedKFold
 
-from clothscope.classify.model import predict, train_model
+from clothscope.classify.model import QdaModel, VotingModel, predict, train_model
 from clothscope.classify.qda import check_reg, check_subspace, fit_qda, posteriors
 from clothscope.classify.rows import (
     MIN_LOOCV_PER_CLASS,
@@ -240,7 +240,8 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
     return best, scores
 
 
-def class_posteriors(model: Any, queries: pd.DataFrame, classes: list[str], tiles: pd.DataFrame | None) -> np.ndarray:
+def class_posteriors(model: QdaModel | VotingModel, queries: pd.DataFrame, classes: list[str],
+                     tiles: pd.DataFrame | None) -> np.ndarray:
     """(rows, classes) posteriors of ``queries`` under a trained model whose classes are ``classes`` (``tiles``:
     :func:`predict`)."""
     if model.classes != classes:
@@ -248,12 +249,10 @@ def class_posteriors(model: Any, queries: pd.DataFrame, classes: list[str], tile
     return predict(model, queries, tiles)[[posterior_column(c) for c in classes]].to_numpy(float)
 
 
-def voted_posteriors(rows: pd.DataFrame, queries: pd.DataFrame, candidates: dict[str, list[str]], classes: list[str],
-                     reg: float | str, subspace: str, tiles: pd.DataFrame | None,
-                     query_tiles: pd.DataFrame | None) -> tuple[np.ndarray, list[str]]:
-    """(rows, classes): the mean posteriors of ``queries`` under a QDA of each distinct candidate set trained on
-    ``rows`` and the ``tiles`` of those images (:func:`_distinct_candidates`), and the names of the sets that voted.
-    ``query_tiles``: each query is scored with its own tiles from there too (:func:`predict`).
+def train_vote(rows: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str, subspace: str,
+               tiles: pd.DataFrame | None) -> VotingModel:
+    """A QDA of each distinct candidate set (:func:`_distinct_candidates`), trained on ``rows`` and the ``tiles``
+    of those images, as one :class:`VotingModel`.
 
     Every set votes with equal weight, so nothing is chosen by a score. A set that
     cannot be trained (no column varies) does not vote.
@@ -263,18 +262,24 @@ def voted_posteriors(rows: pd.DataFrame, queries: pd.DataFrame, candidates: dict
     ValueError
         When no candidate can be trained.
     """
-    total, voters, problems = np.zeros((len(queries), len(classes))), [], []
+    members, problems = {}, []
     for name, columns in _distinct_candidates(rows, candidates).items():
         try:
-            model = train_model(rows, columns, reg, subspace, tiles)
+            members[name] = train_model(rows, columns, reg, subspace, tiles)
         except ValueError as err:
             problems.append(f"{name}: {str(err).splitlines()[0]}")
-            continue
-        total += class_posteriors(model, queries, classes, query_tiles)
-        voters.append(name)
-    if not voters:
+    if not members:
         raise ValueError(f"no candidate feature set could be trained ({'; '.join(problems)})")
-    return total / len(voters), voters
+    return VotingModel(members)
+
+
+def voted_posteriors(rows: pd.DataFrame, queries: pd.DataFrame, candidates: dict[str, list[str]], classes: list[str],
+                     reg: float | str, subspace: str, tiles: pd.DataFrame | None,
+                     query_tiles: pd.DataFrame | None) -> tuple[np.ndarray, list[str]]:
+    """(rows, classes): the mean posteriors of ``queries`` under :func:`train_vote` on ``rows``, and the names of the
+    sets that voted. ``query_tiles``: each query is scored with its own tiles from there too (:func:`predict`)."""
+    model = train_vote(rows, candidates, reg, subspace, tiles)
+    return class_posteriors(model, queries, classes, query_tiles), list(model.members)
 
 
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",

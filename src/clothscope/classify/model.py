@@ -6,7 +6,9 @@ names the format, the classes, the feature columns, the settings and the
 SHA-256 of the arrays file, so a record and arrays from different runs, or a
 file that is not a model, are refused with one line.
 
-The arrays hold everything a posterior needs (:class:`QdaParameters`):
+A saved model is a :class:`VotingModel`: one or more QDAs (:class:`QdaModel`),
+each on its own column set, whose posteriors are averaged (one QDA: its own).
+The arrays hold everything each QDA's posterior needs (:class:`QdaParameters`):
 standardisation, the optional discriminant projection, and each class's
 mean, covariance eigenvectors and eigenvalues and prior.
 """
@@ -38,7 +40,7 @@ from clothscope.classify.rows import (
 from clothscope.core.atomic import write_json, write_with
 
 #: Marker of the record of a saved model; a record with another is refused.
-MODEL_FORMAT = "clothscope-qda-model/2"
+MODEL_FORMAT = "clothscope-qda-model/3"
 #: File names of a saved model inside its folder.
 ARRAYS_NAME = "model.npz"
 RECORD_NAME = "model.json"
@@ -130,19 +132,56 @@ class QdaModel:
             raise ValueError(f"{len(self.feature_columns)} feature columns for arrays of {self.parameters.n_features} features")
 
 
-def _record(model: QdaModel, arrays_sha256: str, metadata: dict[str, Any]) -> dict[str, Any]:
+@dataclass
+class VotingModel:
+    """QDAs on several column sets (``members``, by set name) that classify a row by the mean of their posteriors.
+
+    One member is a plain QDA. ``metadata`` is the record it was loaded from (empty when trained here).
+    """
+
+    members: dict[str, QdaModel]
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not self.members:
+            raise ValueError("a voting model needs at least one QDA")
+        classes = {tuple(member.classes) for member in self.members.values()}
+        if len(classes) != 1:
+            raise ValueError(f"the QDAs of a voting model have different classes: {sorted(classes)}")
+
+    @property
+    def classes(self) -> list[str]:
+        """The classes every member scores."""
+        return list(next(iter(self.members.values())).classes)
+
+    @property
+    def feature_columns(self) -> list[str]:
+        """Every column some member reads, in first-use order."""
+        return list(dict.fromkeys(c for member in self.members.values() for c in member.feature_columns))
+
+
+def _member_record(name: str, model: QdaModel) -> dict[str, Any]:
     return {
-        "format": MODEL_FORMAT,
-        "status": "trained",
-        "classes": list(model.classes),
+        "name": name,
         "feature_columns": list(model.feature_columns),
         "dropped_columns": list(model.dropped_columns),
         "class_counts": dict(model.class_counts),
         "excluded_classes": {c: list(ids) for c, ids in model.excluded.items()},
-        "reg": model.reg,
-        "subspace": model.subspace,
-        "var_floor": float(model.var_floor),
         "notes": list(model.notes),
+    }
+
+
+def _record(model: VotingModel, arrays_sha256: str, metadata: dict[str, Any]) -> dict[str, Any]:
+    first = next(iter(model.members.values()))
+    return {
+        "format": MODEL_FORMAT,
+        "status": "trained",
+        "classes": model.classes,
+        "feature_columns": model.feature_columns,
+        "reg": first.reg,
+        "subspace": first.subspace,
+        "var_floor": float(first.var_floor),
+        "members": [_member_record(name, member) for name, member in model.members.items()],
         "arrays": ARRAYS_NAME,
         "arrays_sha256": arrays_sha256,
         "clothscope_version": __version__,
@@ -150,18 +189,29 @@ def _record(model: QdaModel, arrays_sha256: str, metadata: dict[str, Any]) -> di
     }
 
 
-def _arrays_bytes(parameters: QdaParameters) -> bytes:
+def _array_key(member: int, name: str) -> str:
+    return f"m{member}_{name}"
+
+
+def _arrays_bytes(model: VotingModel) -> bytes:
     buffer = io.BytesIO()
-    np.savez(buffer, **{f.name: getattr(parameters, f.name) for f in fields(parameters)})
+    np.savez(buffer, **{_array_key(k, f.name): getattr(member.parameters, f.name)
+                        for k, member in enumerate(model.members.values()) for f in fields(QdaParameters)})
     return buffer.getvalue()
 
 
-def save_model(model: QdaModel, folder: str | os.PathLike[str], metadata: dict[str, Any] | None = None) -> None:
+def as_voting(model: QdaModel | VotingModel, name: str = "model") -> VotingModel:
+    """``model`` as a :class:`VotingModel` (a single QDA becomes its one member, called ``name``)."""
+    return model if isinstance(model, VotingModel) else VotingModel({name: model})
+
+
+def save_model(model: QdaModel | VotingModel, folder: str | os.PathLike[str], metadata: dict[str, Any] | None = None) -> None:
     """Write ``model`` to ``folder/model.npz`` (arrays) and ``folder/model.json`` (record), each atomically.
 
     ``metadata`` (the caller's, JSON-ready) is stored under ``"metadata"`` in the record.
     """
-    data = _arrays_bytes(model.parameters)
+    model = as_voting(model)
+    data = _arrays_bytes(model)
     folder = Path(folder)
     write_with(folder / ARRAYS_NAME, lambda tmp: tmp.write_bytes(data))
     write_json(folder / RECORD_NAME, _record(model, hashlib.sha256(data).hexdigest(), metadata or {}))
@@ -182,14 +232,18 @@ def _read_record(path: Path) -> dict[str, Any]:
         raise ValueError(f"{path}: model record does not exist (train a model with the workflow's classify rule)") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
         raise ValueError(f"{path}: not a readable model record ({type(err).__name__})") from None
-    if not isinstance(record, dict) or record.get("format") != MODEL_FORMAT:
+    found = record.get("format") if isinstance(record, dict) else None
+    if isinstance(found, str) and found.startswith(MODEL_FORMAT.rsplit("/", 1)[0] + "/") and found != MODEL_FORMAT:
+        raise ValueError(f"{path}: model record of format {found}, this clothscope reads {MODEL_FORMAT}; "
+                         "retrain it with the workflow's classify rule")
+    if found != MODEL_FORMAT:
         raise ValueError(f"{path}: not a clothscope model record (expected format {MODEL_FORMAT})")
     if record.get("status") != "trained":
         raise ValueError(f"{path}: model was not trained: {record.get('reason', 'no reason recorded')}")
     return record
 
 
-def _read_arrays(path: Path, sha256: Any) -> QdaParameters:
+def _read_arrays(path: Path, sha256: Any, members: int) -> list[QdaParameters]:
     try:
         data = path.read_bytes()
     except OSError:
@@ -199,10 +253,10 @@ def _read_arrays(path: Path, sha256: Any) -> QdaParameters:
     names = [f.name for f in fields(QdaParameters)]
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as archive:
-            missing = sorted(set(names) - set(archive.files))
+            missing = sorted({_array_key(k, n) for k in range(members) for n in names} - set(archive.files))
             if missing:
                 raise ValueError(f"{path}: model arrays lack {', '.join(missing)}")
-            return QdaParameters(**{name: archive[name] for name in names})
+            return [QdaParameters(**{name: archive[_array_key(k, name)] for name in names}) for k in range(members)]
     except (OSError, zipfile.BadZipFile) as err:
         raise ValueError(f"{path}: not a model arrays file ({type(err).__name__})") from None
     except ValueError as err:
@@ -210,7 +264,19 @@ def _read_arrays(path: Path, sha256: Any) -> QdaParameters:
         raise ValueError(message if message.startswith(str(path)) else f"{path}: {message}") from None
 
 
-def load_model(folder: str | os.PathLike[str]) -> QdaModel:
+def _member(entry: dict[str, Any], parameters: QdaParameters, record: dict[str, Any]) -> QdaModel:
+    return QdaModel(
+        parameters=parameters, classes=[str(c) for c in record["classes"]],
+        feature_columns=[str(c) for c in entry["feature_columns"]],
+        dropped_columns=[str(c) for c in entry.get("dropped_columns", [])], reg=record["reg"],
+        subspace=str(record["subspace"]), var_floor=float(record["var_floor"]),
+        class_counts={str(k): int(v) for k, v in entry["class_counts"].items()},
+        excluded={str(k): list(v) for k, v in entry.get("excluded_classes", {}).items()},
+        notes=list(entry.get("notes", [])), metadata=record,
+    )
+
+
+def load_model(folder: str | os.PathLike[str]) -> VotingModel:
     """Load a model written by :func:`save_model` from its folder, validating record and arrays.
 
     Raises
@@ -221,17 +287,13 @@ def load_model(folder: str | os.PathLike[str]) -> QdaModel:
     """
     folder = Path(folder)
     record = _read_record(folder / RECORD_NAME)
-    parameters = _read_arrays(folder / ARRAYS_NAME, record.get("arrays_sha256"))
+    members = record.get("members")
+    if not isinstance(members, list) or not members or not all(isinstance(m, dict) for m in members):
+        raise ValueError(f"{folder / RECORD_NAME}: model record lists no QDA (members)")
+    parameters = _read_arrays(folder / ARRAYS_NAME, record.get("arrays_sha256"), len(members))
     try:
-        return QdaModel(
-            parameters=parameters, classes=[str(c) for c in record["classes"]],
-            feature_columns=[str(c) for c in record["feature_columns"]],
-            dropped_columns=[str(c) for c in record.get("dropped_columns", [])], reg=record["reg"],
-            subspace=str(record["subspace"]), var_floor=float(record["var_floor"]),
-            class_counts={str(k): int(v) for k, v in record["class_counts"].items()},
-            excluded={str(k): list(v) for k, v in record.get("excluded_classes", {}).items()},
-            notes=list(record.get("notes", [])), metadata=record,
-        )
+        return VotingModel({str(entry["name"]): _member(entry, arrays, record) for entry, arrays in zip(members, parameters)},
+                           metadata=record)
     except (KeyError, TypeError, AttributeError) as err:
         raise ValueError(f"{folder / RECORD_NAME}: model record lacks or garbles {err}") from None
     except ValueError as err:
@@ -274,13 +336,24 @@ def _posteriors(model: QdaModel, X: np.ndarray) -> np.ndarray:
         return np.exp(model.parameters.log_posteriors(X))
 
 
-def predict(model: QdaModel, table_rows: pd.DataFrame, tiles: pd.DataFrame | None = None) -> pd.DataFrame:
+def _row_posteriors(model: QdaModel, X: np.ndarray, ids: list[str], tiles: pd.DataFrame | None) -> np.ndarray:
+    """(rows, classes) posteriors of one QDA; with ``tiles``, each row's mean over itself and its image's tiles."""
+    proba = _posteriors(model, X)
+    for k, image_id in enumerate(ids) if tiles is not None else ():
+        looks = with_own_tiles(X[k : k + 1], image_id, tiles, model.feature_columns)[1:]
+        if len(looks):
+            proba[k] = (proba[k] + _posteriors(model, looks).sum(axis=0)) / (1 + len(looks))
+    return proba
+
+
+def predict(model: QdaModel | VotingModel, table_rows: pd.DataFrame, tiles: pd.DataFrame | None = None) -> pd.DataFrame:
     """Classify rows (typically the unlabelled queries) with a trained model.
 
     Parameters
     ----------
     model
-        From :func:`train_model` or :func:`clothscope.classify.model.load_model`.
+        From :func:`train_model` or :func:`clothscope.classify.model.load_model`; a
+        :class:`VotingModel` scores each row by the mean of its members' posteriors.
     table_rows
         Rows with ``image_id`` and the model's feature columns.
     tiles
@@ -300,12 +373,9 @@ def predict(model: QdaModel, table_rows: pd.DataFrame, tiles: pd.DataFrame | Non
     if len(table_rows) == 0:
         return pd.DataFrame(columns=out_columns)
     ids = table_rows["image_id"].astype(str).tolist()
-    X = feature_matrix(table_rows, model.feature_columns, "rows to classify")
-    proba = _posteriors(model, X)
-    for k, image_id in enumerate(ids) if tiles is not None else ():  # the mean over the row and its tiles
-        looks = with_own_tiles(X[k : k + 1], image_id, tiles, model.feature_columns)[1:]
-        if len(looks):
-            proba[k] = (proba[k] + _posteriors(model, looks).sum(axis=0)) / (1 + len(looks))
+    members = list(as_voting(model).members.values())
+    proba = sum(_row_posteriors(member, feature_matrix(table_rows, member.feature_columns, "rows to classify"), ids, tiles)
+                for member in members) / len(members)
     check_posteriors(proba, ids)
     result = pd.DataFrame({"image_id": ids, "predicted_class": [model.classes[k] for k in proba.argmax(axis=1)]})
     for k, c in enumerate(model.classes):
