@@ -456,7 +456,7 @@ def test_the_record_can_vote_and_its_model_for_new_photos_holds_every_set_that_v
     assert len(model.members) > 3 and {"structure_brdf", "photo_profile"} <= set(model.members)
     assert model.metadata["metadata"]["feature_set"] == "vote" and model.metadata["metadata"]["choice"] is None
     summary = (tmp_path / "reports" / "summary.md").read_text()
-    assert "Sets that voted, folds: " in summary and "The model for new photos averages `structure_brdf`" in summary
+    assert "Sets that voted, folds: " in summary and f"averages the posteriors of {len(model.members)} QDAs: `structure_brdf`" in summary
     joined = joined_table({s: pd.read_parquet(p) for s, p in paths.items()})
     query = predict(model, joined[joined["image_id"] == "c5"])
     by_member = [predict(member, joined[joined["image_id"] == "c5"])[["p_a", "p_b", "p_c"]].to_numpy(float)

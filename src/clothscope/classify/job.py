@@ -75,6 +75,13 @@ def write_summary(reports_dir: str | os.PathLike[str], title: str, feature_set: 
     write_text(Path(reports_dir) / SUMMARY_FILE, f"# {title}\n\nFeature set: `{feature_set}`. {accuracy_line}\n\n{versus}\n")
 
 
+def model_line(model: VotingModel, voting: bool) -> str:
+    """The summary's sentence on the model for new photos: the set it uses, or the sets it averages."""
+    names = ", ".join(f"`{name}`" for name in model.members)
+    return (f"The model for new photos averages the posteriors of {len(model.members)} QDAs: {names}." if voting
+            else f"The model for new photos uses {names}.")
+
+
 def all_labelled_model(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str, subspace: str,
                        tiles: pd.DataFrame | None, choice: Choice | None, vote: bool) -> VotingModel:
     """The model for new photos, on every labelled image: the vote of all ``candidates`` (``vote``), or the QDA of
@@ -171,8 +178,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         if choice is not None and choice.prefer and not voting:
             accuracy_line += f" Preferred set `{choice.prefer}`, left only where a sign test at alpha {choice.alpha:g} said so."
     if model is not None:
-        accuracy_line += (f" The model for new photos {'averages' if voting else 'uses'} "
-                          + ", ".join(f"`{name}`" for name in model.members) + ".")
+        accuracy_line += f" {model_line(model, voting)}"
     write_summary(reports_dir, title, feature_set, accuracy_line, versus_photo_line(comparison_csv, source))
     if model is not None:
         save_model(model, model_dir, metadata={"normal_source": source, "feature_set": feature_set,
