@@ -4,8 +4,8 @@ For each of the paper's experiments (5, 7 and 6 classes, :data:`clothscope.class
 the images of those classes are scored three ways:
 
 - the classifier of record, by the same LOOCV as the ``classify`` rule: the configured feature
-  set (``auto`` chooses inside each fold) and QDA subspace, on the fitted maps joined with the
-  photo's features;
+  set (``vote`` averages every candidate set's QDA, ``auto`` chooses one inside each fold) and QDA
+  subspace, on the fitted maps joined with the photo's features;
 - the fitted maps alone (``auto_fitted``, ``vote_fitted``) and the photo alone (``auto_photo``), as the
   ``feature_sets`` rule scores those sets (:func:`clothscope.classify.feature_sets.compare_feature_sets`).
 
@@ -13,8 +13,9 @@ No setting is chosen here; the design set's figures are still optimistic (the fe
 were designed on it), the held-out set's are not.
 
     .venv/bin/python workflow/benchmarks/class_subsets.py [--design results] [--holdout results/holdout/run ...]
+        [--record-only] [--name class_subsets]
 
-Writes ``results/bench/class_subsets.{csv,md}``. Needs each folder's
+Writes ``results/bench/<name>.{csv,md}`` (``--record-only``: the classifier of record alone, in minutes). Needs each folder's
 ``features/{fitted,photo}/table.parquet``.
 """
 from __future__ import annotations
@@ -55,9 +56,16 @@ def source_scores(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame
     return scores
 
 
-def scored_subsets(results: Path, label: str, settings: dict) -> list[dict]:
-    """One row per paper experiment: LOOCV of the classifier of record, and of the fitted maps and the photo alone,
-    on those classes' images in ``results``."""
+def folds_chose(selected: dict[str, int], voting: bool) -> str:
+    """What the folds chose (``auto``), or how many sets voted (``vote``)."""
+    if voting:
+        return f"{len(selected)} sets voted"
+    return ", ".join(f"{k} {v}" for k, v in sorted(selected.items(), key=lambda kv: -kv[1]))
+
+
+def scored_subsets(results: Path, label: str, settings: dict, record_only: bool = False) -> list[dict]:
+    """One row per paper experiment: LOOCV of the classifier of record, and (unless ``record_only``) of the fitted
+    maps and the photo alone, on those classes' images in ``results``."""
     tables, tile_tables = run_tables(results)
     table, tiles, candidates = record_inputs(tables, tile_tables, settings["feature_set"])
     rows = []
@@ -67,8 +75,9 @@ def scored_subsets(results: Path, label: str, settings: dict) -> list[dict]:
         rows.append({"set": label, "experiment": experiment.name, "n": result.n, "correct": result.correct,
                      "accuracy": result.accuracy, "wilson_low": result.wilson_low, "wilson_high": result.wilson_high,
                      "chance": result.chance_uniform,
-                     "folds_chose": ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1])),
-                     **source_scores(of_classes(tables, experiment.classes), tile_tables, settings)})
+                     "folds_chose": folds_chose(result.selected, settings["feature_set"] == "vote"),
+                     **({} if record_only else source_scores(of_classes(tables, experiment.classes), tile_tables,
+                                                             settings))})
     return rows
 
 
@@ -105,12 +114,15 @@ def main() -> None:
     parser.add_argument("--design", type=Path, default=ROOT / "results")
     parser.add_argument("--holdout", type=Path, nargs="+", default=[ROOT / "results" / "holdout" / "run"],
                         help="held-out run folders, each scored and labelled by its path")
+    parser.add_argument("--record-only", action="store_true",
+                        help="score the classifier of record alone (the source sets' columns read '-')")
+    parser.add_argument("--name", default="class_subsets", help="results/bench/<name>.{csv,md}")
     args = parser.parse_args()
     settings = classify_config()
     labelled = [("design", args.design)] + [(held_out_label(folder, args.holdout), folder) for folder in args.holdout]
-    rows = [row for label, folder in labelled for row in scored_subsets(folder, label, settings)]
+    rows = [row for label, folder in labelled for row in scored_subsets(folder, label, settings, args.record_only)]
     frame = pd.DataFrame(rows)
-    publish(ROOT / "results" / "bench", "class_subsets", frame, report(frame, settings), float_format="%.6f")
+    publish(ROOT / "results" / "bench", args.name, frame, report(frame, settings), float_format="%.6f")
 
 
 if __name__ == "__main__":
