@@ -27,6 +27,7 @@ import pandas as pd
 from harness import ROOT, publish, record_inputs, record_loocv, run_tables, shown, validated_config
 
 from clothscope.classify.feature_sets import FEATURE_SETS, compare_feature_sets
+from clothscope.classify.loocv import LoocvResult
 from clothscope.classify.paper_tables import PAPER_EXPERIMENTS
 
 #: The feature-set report's sets scored on each subset beside the classifier of record.
@@ -56,11 +57,9 @@ def source_scores(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame
     return scores
 
 
-def folds_chose(selected: dict[str, int], voting: bool) -> str:
+def folds_chose(result: LoocvResult, voting: bool) -> str:
     """What the folds chose (``auto``), or how many sets voted (``vote``)."""
-    if voting:
-        return f"{len(selected)} sets voted"
-    return ", ".join(f"{k} {v}" for k, v in sorted(selected.items(), key=lambda kv: -kv[1]))
+    return f"{len(result.selected)} sets voted" if voting else result.selected_counts()
 
 
 def scored_subsets(results: Path, label: str, settings: dict, record_only: bool = False) -> list[dict]:
@@ -75,7 +74,7 @@ def scored_subsets(results: Path, label: str, settings: dict, record_only: bool 
         rows.append({"set": label, "experiment": experiment.name, "n": result.n, "correct": result.correct,
                      "accuracy": result.accuracy, "wilson_low": result.wilson_low, "wilson_high": result.wilson_high,
                      "chance": result.chance_uniform,
-                     "folds_chose": folds_chose(result.selected, settings["feature_set"] == "vote"),
+                     "folds_chose": folds_chose(result, settings["feature_set"] == "vote"),
                      **({} if record_only else source_scores(of_classes(tables, experiment.classes), tile_tables,
                                                              settings))})
     return rows

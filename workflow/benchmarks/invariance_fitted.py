@@ -52,8 +52,8 @@ from clothscope.classify.feature_sets import (
     joined_features,
     joined_tiles,
 )
-from clothscope.classify.loocv import Choice, choose_columns, voted_posteriors
-from clothscope.classify.model import predict, train_model
+from clothscope.classify.loocv import Choice, candidates_model
+from clothscope.classify.model import predict
 from clothscope.core.config import schema_defaults
 from clothscope.core.imageio import decode_image, linear_to_srgb, write_png
 from clothscope.evaluate.invariance import PHOTO_TRANSFORMS
@@ -101,14 +101,9 @@ def candidates_of(feature_set: str, columns: list[str], settings: dict) -> tuple
 def view_predictions(others: pd.DataFrame, views: pd.DataFrame, candidates: dict[str, list[str]], vote: bool,
                      settings: dict, tiles: pd.DataFrame | None, scored_tiles: pd.DataFrame | None) -> list[str]:
     """The classes a model trained on ``others`` predicts for the rows of ``views``: the mean posterior of every
-    candidate's QDA (``vote``), or the QDA of the candidate :func:`choose_columns` picks."""
-    reg, subspace = settings["reg"], settings["subspace"]
-    if vote:
-        classes = sorted(others["fabric_class"].astype(str).unique())
-        proba, _ = voted_posteriors(others, views, candidates, classes, reg, subspace, tiles, scored_tiles)
-        return [classes[k] for k in proba.argmax(axis=1)]
-    chosen = choose_columns(others, candidates, reg, subspace, tiles, choice=Choice.from_config(settings["choice"]))[0]
-    model = train_model(others, candidates[chosen], reg, subspace, tiles)
+    candidate's QDA (``vote``), or the QDA of the candidate :func:`choose_columns` picks (:func:`candidates_model`)."""
+    model = candidates_model(others, candidates, settings["reg"], settings["subspace"], tiles,
+                             choice=Choice.from_config(settings["choice"]), vote=vote)
     return list(predict(model, views, scored_tiles)["predicted_class"])
 
 

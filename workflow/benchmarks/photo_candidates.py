@@ -57,7 +57,7 @@ def run_rows(run: Path) -> list[dict]:
     rows = []
     for label, candidates in lists.items():
         result = record_loocv(ok, candidates, tiles, settings)
-        chosen = ", ".join(f"{name} {count}" for name, count in sorted(result.selected.items(), key=lambda kv: -kv[1]))
+        chosen = result.selected_counts()
         rows.append({"run": shown(run), "candidates": label, "correct": result.correct, "n": result.n,
                      "folds_chose": chosen})
     return rows

@@ -63,7 +63,7 @@ def run_rows(run: Path) -> list[dict]:
     rows = []
     for label, candidates in zip(LISTS, (without, everything)):
         result = record_loocv(ok, candidates, tiles, settings, vote=False)
-        chosen = ", ".join(f"{name} {count}" for name, count in sorted(result.selected.items(), key=lambda kv: -kv[1]))
+        chosen = result.selected_counts()
         rows.append({"run": shown(run), "candidates": label,
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy, "folds_chose": chosen})
     return rows
@@ -127,7 +127,7 @@ def criterion_rows(run: Path, criteria: list[str]) -> list[dict]:
         rows.append({"run": shown(run), "candidates": f"inner criterion: {criterion}"
                      + (" (the classifier of record)" if criterion == "accuracy" else ""),
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
-                     "folds_chose": ", ".join(f"{n} {c}" for n, c in sorted(result.selected.items(), key=lambda kv: -kv[1]))})
+                     "folds_chose": result.selected_counts()})
     return rows
 
 
@@ -144,7 +144,7 @@ def prefer_rows(run: Path, preferred: list[str], alphas: list[float] | None = No
         rows.append({"run": shown(run), "candidates": f"prefer {prefer}" + ("" if choice.prefer is None
                                                                              else f" (alpha {choice.alpha:g})"),
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
-                     "folds_chose": ", ".join(f"{n} {c}" for n, c in sorted(result.selected.items(), key=lambda kv: -kv[1]))})
+                     "folds_chose": result.selected_counts()})
     return rows
 
 
@@ -157,7 +157,7 @@ def vote_rows(run: Path) -> list[dict]:
         result = record_loocv(ok, candidates, tiles, settings, vote=feature_set == "vote")
         rows.append({"run": shown(run), "candidates": f"feature_set: {feature_set}",
                      "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
-                     "folds_chose": ", ".join(f"{n} {c}" for n, c in sorted(result.selected.items(), key=lambda kv: -kv[1]))})
+                     "folds_chose": result.selected_counts()})
     return rows
 
 

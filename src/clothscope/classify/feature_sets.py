@@ -201,7 +201,7 @@ def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], 
                        subspace=subspace, tiles=tiles, test_tiles=test_tiles, vote=voting)
     except (KeyError, ValueError) as err:
         return _unscored_row(feature_set, str(err)), None
-    counts = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
+    counts = result.selected_counts()
     chosen = f"{'votes' if voting else 'folds chose'}: {counts}" if counts else ""
     predictions = result.predictions.set_index("image_id")
     right = predictions["predicted_class"] == predictions["true_class"]

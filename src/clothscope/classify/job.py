@@ -27,8 +27,8 @@ from clothscope.classify.feature_sets import (
     joined_table,
     joined_tiles,
 )
-from clothscope.classify.loocv import Choice, choose_columns, loocv, train_vote
-from clothscope.classify.model import VotingModel, as_voting, predict, save_model, save_untrained, train_model
+from clothscope.classify.loocv import Choice, candidates_model, loocv
+from clothscope.classify.model import VotingModel, predict, save_model, save_untrained
 from clothscope.classify.outputs import (
     ACCURACY_FILE,
     CONFUSION_CSV_FILE,
@@ -80,16 +80,6 @@ def model_line(model: VotingModel, voting: bool) -> str:
     names = ", ".join(f"`{name}`" for name in model.members)
     return (f"The model for new photos averages the posteriors of {len(model.members)} QDAs: {names}." if voting
             else f"The model for new photos uses {names}.")
-
-
-def all_labelled_model(table: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str, subspace: str,
-                       tiles: pd.DataFrame | None, choice: Choice | None, vote: bool) -> VotingModel:
-    """The model for new photos, on every labelled image: the vote of all ``candidates`` (``vote``), or the QDA of
-    the one :func:`choose_columns` picks (a single candidate: that one)."""
-    if vote:
-        return train_vote(table, candidates, reg, subspace, tiles)
-    chosen = choose_columns(table, candidates, reg, subspace, tiles, choice=choice)[0]
-    return as_voting(train_model(table, candidates[chosen], reg, subspace, tiles), chosen)
 
 
 def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.PathLike[str], source: str, reg: float | str,
@@ -157,7 +147,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     except ValueError as err:  # too few labelled classes or images: no scores, the run goes on
         result, problems = None, [f"LOOCV not run: {str(err).splitlines()[0]}"]
     try:
-        model = all_labelled_model(ok, candidates, reg, subspace, tiles, choice, voting)
+        model = candidates_model(ok, candidates, reg, subspace, tiles, choice=choice, vote=voting)
     except ValueError as err:
         model = None
         problems.append(f"no model trained: {str(err).splitlines()[0]}")
@@ -173,8 +163,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         _write_unscored(reports_dir, source, problems, query_predictions)
         accuracy_line = "; ".join(problems) + "."
     if result is not None and result.selected:
-        counts = ", ".join(f"{k} {v}" for k, v in sorted(result.selected.items(), key=lambda kv: -kv[1]))
-        accuracy_line += f" {'Sets that voted, folds' if voting else 'Sets the folds chose'}: {counts}."
+        accuracy_line += f" {'Sets that voted, folds' if voting else 'Sets the folds chose'}: {result.selected_counts()}."
         if choice is not None and choice.prefer and not voting:
             accuracy_line += f" Preferred set `{choice.prefer}`, left only where a sign test at alpha {choice.alpha:g} said so."
     if model is not None:

@@ -23,7 +23,7 @@ import pandas as pd
 from scipy.stats import binomtest
 from sklearn.model_selection import RepeatedStratifiedKFold, StratifiedKFold
 
-from clothscope.classify.model import QdaModel, VotingModel, predict, train_model
+from clothscope.classify.model import QdaModel, VotingModel, as_voting, predict, train_model
 from clothscope.classify.qda import check_reg, check_subspace, fit_qda, posteriors
 from clothscope.classify.rows import (
     MIN_LOOCV_PER_CLASS,
@@ -68,6 +68,10 @@ class LoocvResult:
     excluded: dict[str, list[str]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     selected: dict[str, int] = field(default_factory=dict)
+
+    def selected_counts(self) -> str:
+        """The sets the folds chose (or that voted), most often first: ``name count, ...``."""
+        return ", ".join(f"{name} {count}" for name, count in sorted(self.selected.items(), key=lambda kv: -kv[1]))
 
 
 # --------------------------------------------------------------------------- helpers
@@ -273,13 +277,16 @@ def train_vote(rows: pd.DataFrame, candidates: dict[str, list[str]], reg: float 
     return VotingModel(members)
 
 
-def voted_posteriors(rows: pd.DataFrame, queries: pd.DataFrame, candidates: dict[str, list[str]], classes: list[str],
-                     reg: float | str, subspace: str, tiles: pd.DataFrame | None,
-                     query_tiles: pd.DataFrame | None) -> tuple[np.ndarray, list[str]]:
-    """(rows, classes): the mean posteriors of ``queries`` under :func:`train_vote` on ``rows``, and the names of the
-    sets that voted. ``query_tiles``: each query is scored with its own tiles from there too (:func:`predict`)."""
-    model = train_vote(rows, candidates, reg, subspace, tiles)
-    return class_posteriors(model, queries, classes, query_tiles), list(model.members)
+def candidates_model(rows: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str, subspace: str,
+                     tiles: pd.DataFrame | None, score: InnerScore | None = None, choice: Choice | None = None,
+                     vote: bool = False) -> VotingModel:
+    """The classifier of a candidate list trained on ``rows`` and their ``tiles``: with ``vote``, a QDA on every
+    distinct candidate (:func:`train_vote`); else the QDA of the one :func:`choose_columns` picks (by ``score`` and
+    ``choice``; a single candidate: that one), as a one-member :class:`VotingModel` named after it."""
+    if vote:
+        return train_vote(rows, candidates, reg, subspace, tiles)
+    chosen = choose_columns(rows, candidates, reg, subspace, tiles, score, choice)[0]
+    return as_voting(train_model(rows, candidates[chosen], reg, subspace, tiles), chosen)
 
 
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
@@ -308,7 +315,7 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         *training* images only, so the held-out image never takes part in
         the choice (``selected`` counts the picks). With ``vote``, nothing is
         chosen: each fold averages the posteriors of every candidate's QDA
-        (:func:`voted_posteriors`; ``selected`` counts the votes).
+        (:func:`train_vote`; ``selected`` counts the votes).
     subspace
         Feature space of the QDA (:func:`make_qda`).
     tiles
@@ -347,15 +354,9 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         train = np.arange(n) != i
         if select_from:
             rows, query = labelled.iloc[np.flatnonzero(train)], labelled.iloc[[i]]
-            if vote:
-                voted, names = voted_posteriors(rows, query, select_from, classes, reg, subspace, tiles,
-                                                tiles if test_tiles else None)
-                proba[i] = voted[0]
-            else:
-                names = [choose_columns(rows, select_from, reg, subspace, tiles, score, choice)[0]]
-                model = train_model(rows, select_from[names[0]], reg, subspace, tiles)
-                proba[i] = class_posteriors(model, query, classes, tiles if test_tiles else None)[0]
-            for name in names:
+            fold_model = candidates_model(rows, select_from, reg, subspace, tiles, score, choice, vote)
+            proba[i] = class_posteriors(fold_model, query, classes, tiles if test_tiles else None)[0]
+            for name in fold_model.members:
                 selected[name] = selected.get(name, 0) + 1
             continue
         model = fit_qda(reg, *with_tiles(X[train], y[train], np.asarray(ids)[train], tiles, used), notes, subspace)
