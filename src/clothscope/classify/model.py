@@ -123,7 +123,6 @@ class QdaModel:
     class_counts: dict[str, int]
     excluded: dict[str, list[str]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-    metadata: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if len(self.classes) != self.parameters.log_priors.shape[0]:
@@ -272,7 +271,7 @@ def _member(entry: dict[str, Any], parameters: QdaParameters, record: dict[str, 
         subspace=str(record["subspace"]), var_floor=float(record["var_floor"]),
         class_counts={str(k): int(v) for k, v in entry["class_counts"].items()},
         excluded={str(k): list(v) for k, v in entry.get("excluded_classes", {}).items()},
-        notes=list(entry.get("notes", [])), metadata=record,
+        notes=list(entry.get("notes", [])),
     )
 
 
