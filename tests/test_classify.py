@@ -15,7 +15,9 @@ from clothscope.classify.loocv import (
     confusion_matrix,
     loocv,
     per_class_metrics,
+    plainly_beaten,
     sign_test_p,
+    train_vote,
     wilson_interval,
 )
 from clothscope.classify.model import (
@@ -327,6 +329,20 @@ def test_a_voting_model_round_trips_and_averages_its_members(tmp_path):
     assert not np.allclose(mean, posterior_matrix(predict(first, probe)))  # the second member changed something
     with pytest.raises(ValueError, match="different classes"):
         VotingModel({"front": first, "two": train_model(gaussian_table({"a": 4, "b": 4}, seed=2), FEATURES)})
+
+
+def test_a_pruned_vote_leaves_out_a_set_the_best_beats_plainly():
+    """Beside two informative sets, a set of pure noise loses a sign test of the inner hits: pruned, it does not vote."""
+    table = gaussian_table({"a": 8, "b": 8, "c": 8}, seed=21)
+    table["noise"] = np.random.default_rng(22).normal(size=len(table))
+    candidates = {"front": FEATURES[:2], "back": FEATURES[1:], "noise": ["noise"]}
+    assert plainly_beaten(table, candidates, "auto", "none", None, 0.05) == {"noise"}
+    assert list(train_vote(table, candidates, "auto", "none", None).members) == ["front", "back", "noise"]
+    assert list(train_vote(table, candidates, "auto", "none", None, prune=0.05).members) == ["front", "back"]
+    result = loocv(table, [], select_from=candidates, vote=True, prune=0.05)
+    assert result.selected == {"front": 24, "back": 24} and result.correct == 24
+    with pytest.raises(ValueError, match="pruning level must be in"):
+        plainly_beaten(table, candidates, "auto", "none", None, 1.0)
 
 
 def saved_model(tmp_path):

@@ -1,6 +1,8 @@
 """The thread-structure descriptor: invariances by construction, hard inputs, and the feature-set report."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -455,6 +457,7 @@ def test_the_record_can_vote_and_its_model_for_new_photos_holds_every_set_that_v
     model = load_model(tmp_path / "model")
     assert len(model.members) > 3 and {"structure_brdf", "photo_profile"} <= set(model.members)
     assert model.metadata["metadata"]["feature_set"] == "vote" and model.metadata["metadata"]["choice"] is None
+    assert model.metadata["metadata"]["prune"] == 0.0
     summary = (tmp_path / "reports" / "summary.md").read_text()
     assert "Sets that voted, folds: " in summary and f"averages the posteriors of {len(model.members)} QDAs: `structure_brdf`" in summary
     joined = joined_table({s: pd.read_parquet(p) for s, p in paths.items()})
@@ -463,6 +466,28 @@ def test_the_record_can_vote_and_its_model_for_new_photos_holds_every_set_that_v
                  for member in model.members.values()]
     assert np.allclose(query[["p_a", "p_b", "p_c"]].to_numpy(float), np.mean(by_member, axis=0))
     assert query["predicted_class"].item() == "c"
+
+
+def test_a_pruned_record_leaves_out_fitted_sets_that_carry_no_class(tmp_path):
+    """``classify.prune``: fits that carry no class lose the inner sign test, so neither the folds nor the model let
+    the fitted maps' own sets vote, while the photo's sets do."""
+    from clothscope.classify.job import classify_job
+    from clothscope.classify.model import load_model
+
+    rng = np.random.default_rng(5)
+    paths = {}
+    for source, informative in (("fitted", False), ("photo", True)):
+        table = _table(source, rng, informative).assign(normal_source=source, mitsuba_variant="llvm_ad_rgb", config_hash="h")
+        paths[source] = tmp_path / f"{source}.parquet"
+        table.to_parquet(paths[source])
+    out = classify_job(paths["fitted"], "config/physics.yaml", "fitted", "auto", tmp_path / "reports", tmp_path / "model",
+                       feature_set="vote", photo_table_path=paths["photo"], subspace="discriminant", prune=0.05)
+    model = load_model(tmp_path / "model")
+    fitted_only = {"structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf"}
+    assert not fitted_only & set(model.members) and "photo_profile" in model.members
+    assert model.metadata["metadata"]["prune"] == 0.05 and out["accuracy"] > 0.9
+    summary = (tmp_path / "reports" / "summary.md").read_text()
+    assert "photo_profile 18" in summary and not re.search(r"[ :]structure_brdf \d+", summary)  # no fold let it vote
 
 
 def test_joined_table_marks_an_image_unusable_when_any_source_fails():

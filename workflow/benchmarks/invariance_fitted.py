@@ -17,7 +17,8 @@ for the transformed photo than for the original. The model is the configured
 classifier (``classify.reg``, ``classify.subspace`` and ``classify.test_tiles``); an ``auto`` set, and
 ``record`` (the classifier of record: ``classify.feature_set`` on fitted maps
 with the photo beside them), choose their columns on those other images as the
-``classify`` rule does; ``record_vote`` is the record with ``classify.feature_set: vote``.
+``classify`` rule does; ``record_vote`` is the record with ``classify.feature_set: vote``, every set voting
+(``record`` follows ``classify.prune`` too).
 Needs the main run's ``fitted`` and ``photo`` feature tables.
 
     .venv/bin/python workflow/benchmarks/invariance_fitted.py [--images a,b|all] [--out results/bench/invariance] [--features-only]
@@ -88,22 +89,27 @@ def transformed_sheet(sheet: pd.DataFrame, out: Path) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=sheet.columns)
 
 
-def candidates_of(feature_set: str, columns: list[str], settings: dict) -> tuple[dict[str, list[str]], bool]:
+def candidates_of(feature_set: str, columns: list[str], settings: dict) -> tuple[dict[str, list[str]], float | None]:
     """The column sets a model of ``feature_set`` chooses from (one set unless it is ``auto``, ``vote`` or ``record``),
-    and whether their posteriors are averaged (``vote``) instead."""
+    and, where their posteriors are averaged instead (``vote``), the level it prunes them at (``classify.prune`` for
+    ``record``, 0 for ``record_vote`` and a source's vote); None where one set is used."""
     if feature_set in RECORDS:
         configured = RECORDS[feature_set] or settings["feature_set"]
-        return classifier_candidates(configured, "fitted", columns), configured == "vote"
+        prune = settings["prune"] if feature_set == "record" else 0.0
+        return classifier_candidates(configured, "fitted", columns), prune if configured == "vote" else None
     pooled = next(s for s in FEATURE_SETS if s.name == feature_set).pooled()
-    return ({feature_set: columns}, False) if pooled is None else (auto_candidates(columns, pooled[0]), pooled[1])
+    if pooled is None:
+        return {feature_set: columns}, None
+    return auto_candidates(columns, pooled[0]), 0.0 if pooled[1] else None
 
 
-def view_predictions(others: pd.DataFrame, views: pd.DataFrame, candidates: dict[str, list[str]], vote: bool,
+def view_predictions(others: pd.DataFrame, views: pd.DataFrame, candidates: dict[str, list[str]], prune: float | None,
                      settings: dict, tiles: pd.DataFrame | None, scored_tiles: pd.DataFrame | None) -> list[str]:
     """The classes a model trained on ``others`` predicts for the rows of ``views``: the mean posterior of every
-    candidate's QDA (``vote``), or the QDA of the candidate :func:`choose_columns` picks (:func:`candidates_model`)."""
+    candidate's QDA not pruned at ``prune`` (a number: a vote), or the QDA of the candidate :func:`choose_columns`
+    picks (None; :func:`candidates_model`)."""
     model = candidates_model(others, candidates, settings["reg"], settings["subspace"], tiles,
-                             choice=Choice.from_config(settings["choice"]), vote=vote)
+                             choice=Choice.from_config(settings["choice"]), vote=prune is not None, prune=prune or 0.0)
     return list(predict(model, views, scored_tiles)["predicted_class"])
 
 
@@ -123,14 +129,14 @@ def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], tr
     usable_now = set(common_images({s: transformed[s] for s in spec.sources}))
     ok = {t: [i for i in images if f"{i}__{t}" in usable_now] for t in PHOTO_TRANSFORMS}
     t_frame, _ = joined_features(spec, transformed, [f"{i}__{t}" for t in PHOTO_TRANSFORMS for i in ok[t]])
-    candidates, vote = candidates_of(feature_set, columns, settings)
+    candidates, prune = candidates_of(feature_set, columns, settings)
     changed, wrong = dict.fromkeys(PHOTO_TRANSFORMS, 0), dict.fromkeys(PHOTO_TRANSFORMS, 0)
     for original in dict.fromkeys(i for t in PHOTO_TRANSFORMS for i in ok[t]):
         others = frame[frame["image_id"] != original]
         transforms = [t for t in PHOTO_TRANSFORMS if original in ok[t]]
         views = pd.concat([frame[frame["image_id"] == original],
                            *(t_frame[t_frame["image_id"] == f"{original}__{t}"] for t in transforms)], ignore_index=True)
-        before, *afters = view_predictions(others, views, candidates, vote, settings, tiles, scored_tiles)
+        before, *afters = view_predictions(others, views, candidates, prune, settings, tiles, scored_tiles)
         for transform, after in zip(transforms, afters):
             changed[transform] += int(before != after)
             wrong[transform] += int(after != views["fabric_class"].iloc[0])

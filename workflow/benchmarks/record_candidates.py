@@ -1,7 +1,7 @@
 """Benchmark: the classifier of record with and without the photo's own column sets among its candidates.
 
     .venv/bin/python workflow/benchmarks/record_candidates.py RUN [RUN ...] [--name record_candidates]
-        [--ensemble K ... | --criterion NAME ... | --prefer SET ... | --vote]
+        [--ensemble K ... | --criterion NAME ... | --prefer SET ... | --vote | --prune A ... [--fitted-of-others SEED]]
 
 For each run folder, the fitted and photo feature tables are joined as the ``classify`` rule joins
 them, and the ``auto`` classifier of record is scored by the same LOOCV (a column set chosen inside
@@ -28,6 +28,12 @@ repeats of the split). Measured against a rule written before scoring and reject
 ``--vote`` scores the record's ``auto`` choice against ``classify.feature_set: vote`` (the mean posterior
 of a QDA on every candidate set, nothing chosen; ``docs/design.md``, "The classifier of record, voting").
 
+``--prune A ...`` scores the record's vote with every set voting against the vote pruned at each sign test
+level A (``classify.prune``: each fold leaves out the sets the best one beats plainly in an inner cross-validation
+of its training images; ``docs/design.md``, "Pruning the vote"). ``--fitted-of-others SEED`` first gives each image
+the fitted features and tiles of another image (a permutation drawn with SEED, :func:`fitted_of_others`): fitted
+maps that carry no class, the failure pruning is meant to absorb.
+
 ``--prefer SET ...`` scores the record with each ``classify.choice.prefer`` (``none``: the best inner
 accuracy; a candidate's name: that set unless the best beats it by the sign test of
 :class:`clothscope.classify.loocv.Choice`, at the config's ``classify.choice.alpha``, or at each level
@@ -44,11 +50,12 @@ import pandas as pd
 from class_subsets import classify_config
 from harness import ROOT, publish, record_inputs, record_loocv, run_tables, shown
 
-from clothscope.classify.feature_sets import PHOTO_GROUPS
+from clothscope.classify.feature_sets import JOINED_PROVENANCE, PHOTO_GROUPS
 from clothscope.classify.loocv import Choice, choose_columns, inner_folds
 from clothscope.classify.model import predict, train_model
 from clothscope.classify.rows import posterior_column, split_labelled
 from clothscope.core.config import config_schema
+from clothscope.features.sources import STATUS_OK
 
 LISTS = ("without the photo's own sets", "with them (default)")
 #: the values of ``classify.choice.prefer`` (the config schema's enum)
@@ -161,6 +168,45 @@ def vote_rows(run: Path) -> list[dict]:
     return rows
 
 
+def fitted_of_others(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame],
+                     seed: int) -> tuple[dict[str, pd.DataFrame], dict[str, pd.DataFrame]]:
+    """The run's tables with each usable image's fitted features (and fitted tiles) replaced by those of another
+    usable image, drawn by a random permutation with ``seed``: fitted maps that carry no class, beside the true photo."""
+    fitted = tables["fitted"].reset_index(drop=True)
+    ok = np.flatnonzero(fitted["status"].to_numpy() == STATUS_OK)
+    donors = ok[np.random.default_rng(seed).permutation(len(ok))]
+    features = [c for c in fitted.columns if c not in JOINED_PROVENANCE]
+    spoiled = fitted.copy()
+    spoiled.loc[ok, features] = fitted.loc[donors, features].to_numpy()
+    out_tiles = dict(tiles)
+    if "fitted" in tiles:
+        ids = fitted["image_id"].astype(str).to_numpy()
+        by_image = {image: part for image, part in tiles["fitted"].assign(
+            image_id=lambda t: t["image_id"].astype(str)).groupby("image_id")}
+        out_tiles["fitted"] = pd.concat([by_image[ids[d]].assign(image_id=ids[i]) for i, d in zip(ok, donors)
+                                         if ids[d] in by_image], ignore_index=True)
+    return {**tables, "fitted": spoiled}, out_tiles
+
+
+def prune_rows(run: Path, levels: list[float], spoil_seed: int | None = None) -> list[dict]:
+    """LOOCV of the classifier of record's vote with every candidate and with those the best beats plainly in each
+    fold's inner cross-validation left out, at each sign test level of ``levels``; with ``spoil_seed``, on
+    :func:`fitted_of_others` of the run's tables."""
+    tables, tile_tables = run_tables(run)
+    if spoil_seed is not None:
+        tables, tile_tables = fitted_of_others(tables, tile_tables, spoil_seed)
+    ok, tiles, candidates = record_inputs(tables, tile_tables, "auto")
+    settings = classify_config()
+    label = shown(run) + ("" if spoil_seed is None else f" (fitted features of other images, seed {spoil_seed})")
+    rows = []
+    for level in [0.0, *levels]:
+        result = record_loocv(ok, candidates, tiles, settings, vote=True, prune=level)
+        rows.append({"run": label, "candidates": f"vote, pruned at {level:g}" if level else "vote, every set",
+                     "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
+                     "folds_chose": result.selected_counts()})
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", help="run folders (each with features/fitted and features/photo)")
@@ -176,23 +222,34 @@ def main() -> None:
                         help="with --prefer: at each of these classify.choice.alpha levels (default: the config's)")
     parser.add_argument("--vote", action="store_true",
                         help="score the record's auto choice against its vote over every candidate (feature_set: vote)")
+    parser.add_argument("--prune", type=float, nargs="+", metavar="A",
+                        help="score the record's vote with every set and pruned at each of these sign test levels")
+    parser.add_argument("--fitted-of-others", type=int, metavar="SEED",
+                        help="with --prune: give each image the fitted features of another (a permutation drawn with SEED)")
     args = parser.parse_args()
     if args.alpha and (not args.prefer or not all(0.0 < a < 1.0 for a in args.alpha)):
         parser.error("--alpha needs --prefer and levels between 0 and 1")
     if args.ensemble and min(args.ensemble) < 1:
         parser.error("--ensemble sizes must be >= 1")
-    if sum(bool(option) for option in (args.ensemble, args.criterion, args.prefer, args.vote)) > 1:
-        parser.error("give one of --ensemble, --criterion, --prefer and --vote")
+    if sum(bool(option) for option in (args.ensemble, args.criterion, args.prefer, args.vote, args.prune)) > 1:
+        parser.error("give one of --ensemble, --criterion, --prefer, --vote and --prune")
+    if args.prune and not all(0.0 < a < 1.0 for a in args.prune):
+        parser.error("--prune levels must be between 0 and 1")
+    if args.fitted_of_others is not None and not args.prune:
+        parser.error("--fitted-of-others needs --prune")
     rows_of = vote_rows if args.vote else run_rows
     if args.ensemble:
         rows_of = lambda run: ensemble_rows(run, sorted(set(args.ensemble)))  # noqa: E731
     elif args.criterion:
         rows_of = lambda run: criterion_rows(run, list(dict.fromkeys(args.criterion)))  # noqa: E731
+    elif args.prune:
+        rows_of = lambda run: prune_rows(run, sorted(set(args.prune)), args.fitted_of_others)  # noqa: E731
     elif args.prefer:
         rows_of = lambda run: prefer_rows(run, list(dict.fromkeys(args.prefer)), args.alpha)  # noqa: E731
     table = pd.DataFrame([row for run in args.runs for row in rows_of(ROOT / run)])
     how = ("posteriors of the best K candidates averaged in each fold" if args.ensemble
            else "one set chosen inside each fold, or every candidate's posterior averaged" if args.vote
+           else "candidates' posteriors averaged, less those plainly beaten in each fold" if args.prune
            else "column set chosen inside each fold" + (", by each inner criterion" if args.criterion else "")
            + (", by each preferred set" if args.prefer else ""))
     lines = [f"Classifier of record (LOOCV, {how}), by its candidate list:", "",

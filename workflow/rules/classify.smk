@@ -36,6 +36,7 @@ rule classify:
         physics=config["classify"]["physics"],
         feature_set=config["classify"]["feature_set"],
         choice=config["classify"]["choice"],
+        prune=config["classify"]["prune"],
         test_tiles=config["classify"]["test_tiles"],
         settings={key: config[key] for key in ("prepare", "fit", "features", "variant")},
     script:

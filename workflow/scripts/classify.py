@@ -25,5 +25,6 @@ with job_log(snakemake.log[0], "classify") as log:
         photo_table_path=snakemake.input.get("photo") or None,
         tile_paths=tile_paths,
         choice=Choice.from_config(snakemake.params.choice),
+        prune=snakemake.params.prune,
         test_tiles=snakemake.params.test_tiles == "mean",
     )

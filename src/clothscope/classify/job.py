@@ -89,7 +89,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
                  photo_table_path: str | os.PathLike[str] | None = None, subspace: str,
                  settings: dict[str, Any] | None = None,
                  tile_paths: dict[str, str | os.PathLike[str]] | None = None,
-                 choice: Choice | None = None, test_tiles: bool = False) -> dict[str, Any]:
+                 choice: Choice | None = None, test_tiles: bool = False, prune: float = 0.0) -> dict[str, Any]:
     """Run the classifier stage for one normal source.
 
     Parameters
@@ -129,6 +129,9 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     test_tiles
         Score each image by the mean posterior of its whole row and its tiles (``classify.test_tiles: mean``),
         in LOOCV and as a query; recorded in the model, so ``clothscope predict`` scores a photo alike.
+    prune
+        With ``vote``: the sign test level at which the sets the best one beats plainly are left out
+        (``classify.prune``; 0: every set votes).
     """
     tables = {source: read_table(table_path)}
     if photo_table_path and source != "photo":
@@ -143,11 +146,11 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     voting = feature_set == "vote"
     try:
         result = loocv(ok, [], reg, select_from=candidates, subspace=subspace, tiles=tiles, choice=choice,
-                       test_tiles=test_tiles, vote=voting)
+                       test_tiles=test_tiles, vote=voting, prune=prune)
     except ValueError as err:  # too few labelled classes or images: no scores, the run goes on
         result, problems = None, [f"LOOCV not run: {str(err).splitlines()[0]}"]
     try:
-        model = candidates_model(ok, candidates, reg, subspace, tiles, choice=choice, vote=voting)
+        model = candidates_model(ok, candidates, reg, subspace, tiles, choice=choice, vote=voting, prune=prune)
     except ValueError as err:
         model = None
         problems.append(f"no model trained: {str(err).splitlines()[0]}")
@@ -174,6 +177,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
                                                 "chosen_set": "+".join(model.members),
                                                 "choice": {"prefer": choice.prefer, "alpha": choice.alpha}
                                                 if choice and not voting else None,
+                                                "prune": prune if voting else None,
                                                 "test_tiles": "mean" if test_tiles else "none",
                                                 "feature_table": str(table_path), **provenance,
                                                 "n_labelled": int(len(labelled)), "settings": dict(settings or {}),

@@ -253,21 +253,51 @@ def class_posteriors(model: QdaModel | VotingModel, queries: pd.DataFrame, class
     return predict(model, queries, tiles)[[posterior_column(c) for c in classes]].to_numpy(float)
 
 
+def plainly_beaten(rows: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str, subspace: str,
+                   tiles: pd.DataFrame | None, alpha: float) -> set[str]:
+    """The candidates whose :func:`inner_hits` on ``rows`` the best-scoring candidate beats by the sign test of
+    :func:`evident_gain` at ``alpha`` (ties for best: the first listed); those that cannot be scored count as beaten.
+
+    Raises
+    ------
+    ValueError
+        When ``alpha`` is not in (0, 1).
+    """
+    if not 0 < alpha < 1:
+        raise ValueError(f"the pruning level must be in (0, 1), got {alpha!r}")
+    hits, beaten = {}, set()
+    for name, columns in candidates.items():
+        try:
+            hits[name] = inner_hits(rows, columns, reg, subspace, tiles)
+        except ValueError:
+            beaten.add(name)
+    if hits:
+        best = max(hits, key=lambda name: (hits[name].mean(), -list(candidates).index(name)))
+        beaten |= {name for name in hits if evident_gain(hits[best], hits[name], alpha)}
+    return beaten
+
+
 def train_vote(rows: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str, subspace: str,
-               tiles: pd.DataFrame | None) -> VotingModel:
+               tiles: pd.DataFrame | None, prune: float = 0.0) -> VotingModel:
     """A QDA of each distinct candidate set (:func:`_distinct_candidates`), trained on ``rows`` and the ``tiles``
     of those images, as one :class:`VotingModel`.
 
-    Every set votes with equal weight, so nothing is chosen by a score. A set that
-    cannot be trained (no column varies) does not vote.
+    Every set votes with equal weight. With ``prune`` > 0, the sets that the best
+    one beats plainly in an inner cross-validation of ``rows`` (:func:`plainly_beaten`
+    at that level) do not vote; at 0 nothing is scored. A set that cannot be
+    trained (no column varies) does not vote.
 
     Raises
     ------
     ValueError
         When no candidate can be trained.
     """
+    distinct = _distinct_candidates(rows, candidates)
+    if prune:
+        beaten = plainly_beaten(rows, distinct, reg, subspace, tiles, prune)
+        distinct = {name: columns for name, columns in distinct.items() if name not in beaten} or distinct
     members, problems = {}, []
-    for name, columns in _distinct_candidates(rows, candidates).items():
+    for name, columns in distinct.items():
         try:
             members[name] = train_model(rows, columns, reg, subspace, tiles)
         except ValueError as err:
@@ -279,12 +309,13 @@ def train_vote(rows: pd.DataFrame, candidates: dict[str, list[str]], reg: float 
 
 def candidates_model(rows: pd.DataFrame, candidates: dict[str, list[str]], reg: float | str, subspace: str,
                      tiles: pd.DataFrame | None, score: InnerScore | None = None, choice: Choice | None = None,
-                     vote: bool = False) -> VotingModel:
+                     vote: bool = False, prune: float = 0.0) -> VotingModel:
     """The classifier of a candidate list trained on ``rows`` and their ``tiles``: with ``vote``, a QDA on every
-    distinct candidate (:func:`train_vote`); else the QDA of the one :func:`choose_columns` picks (by ``score`` and
-    ``choice``; a single candidate: that one), as a one-member :class:`VotingModel` named after it."""
+    distinct candidate not pruned at ``prune`` (:func:`train_vote`); else the QDA of the one :func:`choose_columns`
+    picks (by ``score`` and ``choice``; a single candidate: that one), as a one-member :class:`VotingModel` named
+    after it."""
     if vote:
-        return train_vote(rows, candidates, reg, subspace, tiles)
+        return train_vote(rows, candidates, reg, subspace, tiles, prune)
     chosen = choose_columns(rows, candidates, reg, subspace, tiles, score, choice)[0]
     return as_voting(train_model(rows, candidates[chosen], reg, subspace, tiles), chosen)
 
@@ -292,7 +323,8 @@ def candidates_model(rows: pd.DataFrame, candidates: dict[str, list[str]], reg: 
 def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "auto",
           select_from: dict[str, list[str]] | None = None, subspace: str = "none",
           tiles: pd.DataFrame | None = None, score: InnerScore | None = None,
-          choice: Choice | None = None, test_tiles: bool = False, vote: bool = False) -> LoocvResult:
+          choice: Choice | None = None, test_tiles: bool = False, vote: bool = False,
+          prune: float = 0.0) -> LoocvResult:
     """Leave-one-out cross-validation of :func:`make_qda` over the labelled rows.
 
     Each labelled image is classified by a model fitted (scaler included) on
@@ -315,7 +347,8 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         *training* images only, so the held-out image never takes part in
         the choice (``selected`` counts the picks). With ``vote``, nothing is
         chosen: each fold averages the posteriors of every candidate's QDA
-        (:func:`train_vote`; ``selected`` counts the votes).
+        (:func:`train_vote`; ``selected`` counts the votes), less those pruned at
+        ``prune`` by an inner cross-validation of the fold's training images.
     subspace
         Feature space of the QDA (:func:`make_qda`).
     tiles
@@ -354,7 +387,7 @@ def loocv(table: pd.DataFrame, feature_columns: list[str], reg: float | str = "a
         train = np.arange(n) != i
         if select_from:
             rows, query = labelled.iloc[np.flatnonzero(train)], labelled.iloc[[i]]
-            fold_model = candidates_model(rows, select_from, reg, subspace, tiles, score, choice, vote)
+            fold_model = candidates_model(rows, select_from, reg, subspace, tiles, score, choice, vote, prune)
             proba[i] = class_posteriors(fold_model, query, classes, tiles if test_tiles else None)[0]
             for name in fold_model.members:
                 selected[name] = selected.get(name, 0) + 1
