@@ -188,6 +188,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1164", "holdout_1164", "holdout"),
         rendered_run("held-out 1166", "holdout_1166", "holdout"),
         rendered_run("held-out 1167", "holdout_1167", "holdout"),
+        rendered_run("held-out 1169", "holdout_1169", "holdout"),
         fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
@@ -196,6 +197,7 @@ def workflow_runs(results: Path) -> list[Run]:
         fitted_field_run("three weaves 1163, fitted", "weaves_1163", "run"),
         fitted_field_run("microscope-like weaves 1165, fitted", "microscope_1165", "run"),
         fitted_field_run("microscope-like weaves 1168, fitted", "microscope_1168", "run"),
+        fitted_field_run("microscope-like weaves 1170, fitted", "microscope_1170", "run"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -682,6 +684,26 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/record_vote_fresh.md",),
                         f"{py}/record_candidates.py results/holdout_1167/run results/microscope_1168/run --vote "
                         "--name record_vote_fresh"),
+        BenchmarkReport("Pruning the record's vote, on microscope-like 1168 (looked at), two levels",
+                        ("bench/prune_probe.md",),
+                        f"{py}/record_candidates.py results/microscope_1168/run --prune 0.05 0.2 --name prune_probe"),
+        BenchmarkReport("Pruning the record's vote, 1168 with each image given another's fitted features (looked at)",
+                        ("bench/prune_spoiled_1168.md",),
+                        f"{py}/record_candidates.py results/microscope_1168/run --prune 0.05 --fitted-of-others 1 "
+                        "--name prune_spoiled_1168"),
+        BenchmarkReport("Pruning the record's vote, on the seven sets looked at",
+                        ("bench/prune_looked.md",),
+                        f"{py}/record_candidates.py results results/holdout_1162/run results/holdout_1164/run "
+                        "results/holdout_1166/run results/holdout_1167/run results/weaves_1163/run "
+                        "results/microscope_1165/run --prune 0.05 --name prune_looked"),
+        BenchmarkReport("Pruning the record's vote, two fresh sets (the rule's part a)",
+                        ("bench/prune_fresh.md",),
+                        f"{py}/record_candidates.py results/holdout_1169/run results/microscope_1170/run --prune 0.05 "
+                        "--name prune_fresh"),
+        BenchmarkReport("Pruning the record's vote, two fresh sets with each image given another's fitted features "
+                        "(the rule's part b)", ("bench/prune_spoiled_fresh.md",),
+                        f"{py}/record_candidates.py results/holdout_1169/run results/microscope_1170/run --prune 0.05 "
+                        "--fitted-of-others 1 --name prune_spoiled_fresh"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
