@@ -89,6 +89,13 @@ def transformed_sheet(sheet: pd.DataFrame, out: Path) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=sheet.columns)
 
 
+def record_how(settings: dict) -> str:
+    """How the configured record combines its sets, for the report: the vote's pruning or ``auto``'s preferred set."""
+    if settings["feature_set"] == "vote":
+        return f"pruned at {settings['prune']:g}" if settings["prune"] else "every set voting"
+    return f"preferred set `{settings['choice']['prefer']}`, or the one named"
+
+
 def candidates_of(feature_set: str, columns: list[str], settings: dict) -> tuple[dict[str, list[str]], float | None]:
     """The column sets a model of ``feature_set`` chooses from (one set unless it is ``auto``, ``vote`` or ``record``),
     and, where their posteriors are averaged instead (``vote``), the level it prunes them at (``classify.prune`` for
@@ -181,8 +188,8 @@ def main() -> int:
              f"{len(images)} images x {len(PHOTO_TRANSFORMS)} transformations, prepared, fitted and described by the "
              f"workflow {how_run}{f', overlay `{args.overlay}`' if args.overlay else ''}). "
              f"Classifier: QDA, subspace `{settings['subspace']}`, shrinkage `{settings['reg']}`; `record` is "
-             f"`{settings['feature_set']}` on fitted maps with the photo beside them (preferred set "
-             f"`{settings['choice']['prefer']}`, or the one named). Changed: the model trained on every other original image "
+             f"`{settings['feature_set']}` on fitted maps with the photo beside them ({record_how(settings)}); "
+             "`record_vote` is every set voting. Changed: the model trained on every other original image "
              "predicts another class for the transformed photo than for the original. rotate30 keeps the valid centre, "
              "which the prepare stage resizes, so it also magnifies by 1.41.", "",
              "| feature set | transform | changed | rate | wrong after |", "|---|---|---|---|---|"]

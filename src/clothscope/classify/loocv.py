@@ -198,6 +198,11 @@ def _distinct_candidates(table: pd.DataFrame, candidates: dict[str, list[str]]) 
     return distinct
 
 
+def _best_scored(scores: dict[str, Any], order: list[str]) -> str:
+    """The name with the highest score; ties go to the one first in ``order``."""
+    return max(scores, key=lambda name: (scores[name], -order.index(name)))
+
+
 #: An inner score of one column set: called as ``score(table, columns, reg, subspace, tiles)``; higher is better.
 InnerScore = Callable[..., Any]
 
@@ -236,8 +241,7 @@ def choose_columns(table: pd.DataFrame, candidates: dict[str, list[str]], reg: f
             problems.append(f"{name}: {str(err).splitlines()[0]}")
     if not scores:
         raise ValueError(f"no candidate feature set could be scored ({'; '.join(problems)})")
-    order = list(candidates)
-    best = max(scores, key=lambda name: (scores[name], -order.index(name)))
+    best = _best_scored(scores, list(candidates))
     if choice is not None and choice.prefer in scores and best != choice.prefer and not evident_gain(
             hits_of(best), hits_of(choice.prefer), choice.alpha):
         return choice.prefer, scores
@@ -272,7 +276,7 @@ def plainly_beaten(rows: pd.DataFrame, candidates: dict[str, list[str]], reg: fl
         except ValueError:
             beaten.add(name)
     if hits:
-        best = max(hits, key=lambda name: (hits[name].mean(), -list(candidates).index(name)))
+        best = _best_scored({name: float(h.mean()) for name, h in hits.items()}, list(candidates))
         beaten |= {name for name in hits if evident_gain(hits[best], hits[name], alpha)}
     return beaten
 
@@ -284,8 +288,9 @@ def train_vote(rows: pd.DataFrame, candidates: dict[str, list[str]], reg: float 
 
     Every set votes with equal weight. With ``prune`` > 0, the sets that the best
     one beats plainly in an inner cross-validation of ``rows`` (:func:`plainly_beaten`
-    at that level) do not vote; at 0 nothing is scored. A set that cannot be
-    trained (no column varies) does not vote.
+    at that level) do not vote; where none can be scored (too few images for the
+    inner folds), all vote. At 0 nothing is scored. A set that cannot be trained
+    (no column varies) does not vote.
 
     Raises
     ------
