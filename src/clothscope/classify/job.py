@@ -111,7 +111,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     feature_set
         Columns the classifier reads (:func:`clothscope.classify.feature_sets.classifier_candidates`);
         ``auto`` chooses among them inside each LOOCV fold, and for the model on all labelled images;
-        ``vote`` averages the posteriors of a QDA on each of them, in each fold and in the model.
+        ``vote`` averages the posteriors of a QDA on each of them not pruned at ``prune``, in each fold and in the
+        model.
     comparison_csv
         ``feature_sets.csv``, for the line on what the fit bought over the photo alone (``summary.md``).
     photo_table_path
