@@ -63,8 +63,8 @@ def record_inputs(tables: dict[str, pd.DataFrame], tile_tables: dict[str, pd.Dat
 def record_loocv(rows: pd.DataFrame, candidates: dict[str, list[str]], tiles: pd.DataFrame | None, settings: dict,
                  **options) -> LoocvResult:
     """The classifier of record's LOOCV over ``rows`` with the config's ``classify`` ``settings`` (shrinkage, subspace,
-    choice, test tiles, whether it votes and its pruning); ``options`` go to :func:`clothscope.classify.loocv.loocv` (``score``, or
-    ``choice``, ``test_tiles``, ``vote`` or ``prune`` to replace the config's)."""
+    choice, test tiles, whether it votes and its pruning); ``options`` go to :func:`clothscope.classify.loocv.loocv`
+    (``score``, or ``choice``, ``test_tiles``, ``vote`` or ``prune`` to replace the config's)."""
     options.setdefault("choice", Choice.from_config(settings["choice"]))
     options.setdefault("vote", settings["feature_set"] == "vote")
     options.setdefault("prune", settings["prune"] if options["vote"] else 0.0)
