@@ -51,7 +51,7 @@ from class_subsets import classify_config
 from harness import ROOT, publish, record_inputs, record_loocv, run_tables, shown
 
 from clothscope.classify.feature_sets import JOINED_PROVENANCE, PHOTO_GROUPS
-from clothscope.classify.loocv import Choice, choose_columns, inner_folds
+from clothscope.classify.loocv import Choice, LoocvResult, choose_columns, inner_folds
 from clothscope.classify.model import predict, train_model
 from clothscope.classify.rows import posterior_column, split_labelled
 from clothscope.core.config import config_schema
@@ -62,6 +62,12 @@ LISTS = ("without the photo's own sets", "with them (default)")
 PREFER_CHOICES = tuple(config_schema()["properties"]["classify"]["properties"]["choice"]["properties"]["prefer"]["enum"])
 
 
+def result_row(run: str, candidates: str, result: LoocvResult) -> dict:
+    """One report row: the run, how the record combined its candidates, and what its LOOCV got right."""
+    return {"run": run, "candidates": candidates, "correct": result.correct, "images": result.n,
+            "accuracy": result.accuracy, "folds_chose": result.selected_counts()}
+
+
 def run_rows(run: Path) -> list[dict]:
     """The classifier of record's LOOCV on one run, under each candidate list."""
     ok, tiles, everything = record_inputs(*run_tables(run), "auto")
@@ -70,9 +76,7 @@ def run_rows(run: Path) -> list[dict]:
     rows = []
     for label, candidates in zip(LISTS, (without, everything)):
         result = record_loocv(ok, candidates, tiles, settings, vote=False)
-        chosen = result.selected_counts()
-        rows.append({"run": shown(run), "candidates": label,
-                     "correct": result.correct, "images": result.n, "accuracy": result.accuracy, "folds_chose": chosen})
+        rows.append(result_row(shown(run), label, result))
     return rows
 
 
@@ -131,10 +135,8 @@ def criterion_rows(run: Path, criteria: list[str]) -> list[dict]:
     for criterion in criteria:
         result = record_loocv(ok, candidates, tiles, settings, score=partial(inner_score, criterion=criterion),
                               choice=None, vote=False)
-        rows.append({"run": shown(run), "candidates": f"inner criterion: {criterion}"
-                     + (" (the classifier of record)" if criterion == "accuracy" else ""),
-                     "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
-                     "folds_chose": result.selected_counts()})
+        rows.append(result_row(shown(run), f"inner criterion: {criterion}"
+                               + (" (the classifier of record)" if criterion == "accuracy" else ""), result))
     return rows
 
 
@@ -148,10 +150,8 @@ def prefer_rows(run: Path, preferred: list[str], alphas: list[float] | None = No
     for prefer, alpha in ((p, a) for p in preferred for a in (levels[:1] if p == "none" else levels)):
         choice = Choice.from_config({**settings["choice"], "prefer": prefer, "alpha": alpha})
         result = record_loocv(ok, candidates, tiles, settings, choice=choice, vote=False)
-        rows.append({"run": shown(run), "candidates": f"prefer {prefer}" + ("" if choice.prefer is None
-                                                                             else f" (alpha {choice.alpha:g})"),
-                     "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
-                     "folds_chose": result.selected_counts()})
+        rows.append(result_row(shown(run), f"prefer {prefer}" + ("" if choice.prefer is None
+                                                                 else f" (alpha {choice.alpha:g})"), result))
     return rows
 
 
@@ -162,9 +162,7 @@ def vote_rows(run: Path) -> list[dict]:
     rows = []
     for feature_set in ("auto", "vote"):
         result = record_loocv(ok, candidates, tiles, settings, vote=feature_set == "vote")
-        rows.append({"run": shown(run), "candidates": f"feature_set: {feature_set}",
-                     "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
-                     "folds_chose": result.selected_counts()})
+        rows.append(result_row(shown(run), f"feature_set: {feature_set}", result))
     return rows
 
 
@@ -201,9 +199,7 @@ def prune_rows(run: Path, levels: list[float], spoil_seed: int | None = None) ->
     rows = []
     for level in [0.0, *levels]:
         result = record_loocv(ok, candidates, tiles, settings, vote=True, prune=level)
-        rows.append({"run": label, "candidates": f"vote, pruned at {level:g}" if level else "vote, every set",
-                     "correct": result.correct, "images": result.n, "accuracy": result.accuracy,
-                     "folds_chose": result.selected_counts()})
+        rows.append(result_row(label, f"vote, pruned at {level:g}" if level else "vote, every set", result))
     return rows
 
 
