@@ -189,6 +189,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1166", "holdout_1166", "holdout"),
         rendered_run("held-out 1167", "holdout_1167", "holdout"),
         rendered_run("held-out 1169", "holdout_1169", "holdout"),
+        rendered_run("held-out 1171", "holdout_1171", "holdout"),
         fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
@@ -198,6 +199,7 @@ def workflow_runs(results: Path) -> list[Run]:
         fitted_field_run("microscope-like weaves 1165, fitted", "microscope_1165", "run"),
         fitted_field_run("microscope-like weaves 1168, fitted", "microscope_1168", "run"),
         fitted_field_run("microscope-like weaves 1170, fitted", "microscope_1170", "run"),
+        fitted_field_run("microscope-like weaves 1172, fitted", "microscope_1172", "run"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -760,14 +762,27 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/class_subsets.py --holdout results/holdout_1162/run results/holdout_1164/run "
                         "results/holdout_1166/run results/holdout_1167/run --record-only --name class_subsets_record_vote "
                         "(every set voting, the default of its day)"),
-        BenchmarkReport("The paper's class subsets: the classifier of record, its vote pruned",
-                        ("bench/class_subsets_record_pruned.md",),
-                        f"{py}/class_subsets.py --holdout results/holdout_1162/run results/holdout_1164/run "
-                        "results/holdout_1166/run results/holdout_1167/run results/holdout_1169/run --record-only "
-                        "--name class_subsets_record_pruned"),
-        BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
+        BenchmarkReport("The paper's class subsets: the classifier of record, its vote pruned, LBP at the thread period",
+                        ("bench/class_subsets_record_canonical.md",),
+                        f"{py}/class_subsets.py --holdout results/holdout_1171/run --record-only "
+                        "--name class_subsets_record_canonical"),
+        BenchmarkReport("Invariance of predictions, refitted, LBP at the field's pixels (the default until the "
+                        "twenty-third session)", ("bench/invariance_pixels/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --scores-only "
-                        "(the feature tables of the run without `--scores-only`, 2026-11-29; `record` is the pruned vote)"),
+                        "(the feature tables of the run without `--scores-only`, 2026-11-29; `record` is the pruned vote; "
+                        "moved from results/bench/invariance)"),
+        BenchmarkReport("Invariance of predictions, refitted", ("bench/invariance/invariance_fitted.md",),
+                        f"{py}/invariance_fitted.py --images all --features-only --prefer photo_structure_brdf (the refits of the "
+                        "run above reused; run with `--overlay config/overlays/canonical_lbp.yaml`, whose `lbp_scale: "
+                        "canonical` is the default since and which was then removed)"),
+        BenchmarkReport("LBP at the canonical period under the pruned vote: five sets (the rule's parts b and c)",
+                        ("bench/canonical_lbp_record.md",),
+                        f"{py}/setting_gain.py results:results/canonical/design results/holdout_1169/run:"
+                        "results/canonical/holdout_1169 results/microscope_1170/run:results/canonical/microscope_1170 "
+                        "results/holdout_1171/run:results/canonical/holdout_1171 results/microscope_1172/run:"
+                        "results/canonical/microscope_1172 --name canonical_lbp_record (each `results/canonical/<set>` "
+                        "holds the reports of a copy of the run whose features and classifier were rerun with "
+                        "the overlay `features: {structure: {lbp_scale: canonical}}`, the fits reused; made before it became the default)"),
         BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),
                         f"{py}/large_photo.py"),
         BenchmarkReport("What accuracy costs: presets and knobs", ("reports/cost_accuracy.md",), f"{py}/cost_accuracy.py"),

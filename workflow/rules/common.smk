@@ -111,6 +111,12 @@ def source_feature_settings(wildcards):
     return row_settings(config["features"], wildcards.source)
 
 
+def lattice_settings():
+    """The structure settings prepare's lattice test reads. Prepare takes no LBP histograms, so ``lbp_scale`` is held
+    at one value: changing it re-describes the maps without re-preparing (and so refitting) every photo."""
+    return {**config["features"]["structure"], "lbp_scale": "pixels"}
+
+
 def features_path(source, name):
     return os.path.join(RESULTS, "features", source, name)
 

@@ -20,7 +20,7 @@ rule prepare:
     params:
         path=sheet_path,
         settings=config["prepare"],
-        lattice=config["features"]["structure"],
+        lattice=lattice_settings(),
     script:
         "../scripts/prepare.py"
 

@@ -52,9 +52,10 @@ the threads form, in terms that are invariant by construction:
   frequency, finer than the ten-ring radial profile and with the angles.
 
 :func:`lbp_baseline` is the plain texture baseline of the feature-set report:
-uniform LBP histograms at 8/1, 16/2 and 24/3 neighbours/radius on the field as
-it is (no scale normalisation), or, with ``lbp_scale: canonical``, on the
-analysis window resampled to the canonical period (:func:`texture_columns`).
+uniform LBP histograms at 8/1, 16/2 and 24/3 neighbours/radius on the analysis
+window resampled to the canonical period (``lbp_scale: canonical``), or, with
+``lbp_scale: pixels``, on the field as it is (no scale normalisation;
+:func:`texture_columns`).
 """
 from __future__ import annotations
 

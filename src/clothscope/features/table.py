@@ -41,8 +41,8 @@ Columns (:func:`feature_schema`, an explicit pyarrow schema):
   (:data:`clothscope.features.structure.WEAVE_COLUMNS`), its spectrum rings ``p_*``
   (:data:`clothscope.features.structure.SPECTRUM_COLUMNS`), and the plain texture
   baseline ``lbp_*`` (:data:`clothscope.features.structure.LBP_COLUMNS`), both of the
-  source's field (the LBP at its pixels, or at the canonical thread period with
-  ``features.structure.lbp_scale: canonical``); ``a_*``, the structure descriptor of the fitted shade
+  source's field (the LBP at the canonical thread period, or at its pixels with
+  ``features.structure.lbp_scale: pixels``); ``a_*``, the structure descriptor of the fitted shade
   texture (:data:`clothscope.features.structure.SHADE_COLUMNS`; zero without one);
 * with ``extras: true`` only, the ``x_*`` columns of
   :func:`clothscope.features.extras.extra_features` and :func:`surface_features`.
