@@ -113,7 +113,8 @@ def source_feature_settings(wildcards):
 
 def lattice_settings():
     """The structure settings prepare's lattice test reads. Prepare takes no LBP histograms, so ``lbp_scale`` is held
-    at one value: changing it re-describes the maps without re-preparing (and so refitting) every photo."""
+    at one value: changing it re-describes the maps without re-preparing (and so refitting) every photo.
+    """
     return {**config["features"]["structure"], "lbp_scale": "pixels"}
 
 
