@@ -11,6 +11,7 @@ from clothscope.evaluate.accuracy import (
     in_working_frame,
     period_error,
     seen_scale,
+    stage_costs,
     summarise,
     window_seen_scale,
 )
@@ -108,3 +109,22 @@ def test_the_summary_reports_the_period_prepare_read_beside_the_fitted_one():
     assert "| period within 5% | fraction of 3 periodic | 0.667 | >= 0.9 | no |" in text
     assert "| period read by `prepare` (native resolution) within 5% | fraction of 3 periodic | 0.667 | (for reference) | |" in text
     assert "read by `prepare`" not in summarise(table.drop(columns="prepare_period_error"))
+
+
+def test_a_stage_without_a_benchmark_file_is_not_measured_and_never_meets_a_time_target(tmp_path):
+    """A missing ``benchmark:`` file leaves the stage's time empty; the summary says "not measured", not "yes"."""
+    timed = tmp_path / "geometry.tsv"
+    timed.write_text("s\th:m:s\tmax_rss\n4.5\t0:00:04\t210.0\n")
+    costs = stage_costs({"geometry": str(timed), "material": str(tmp_path / "absent.tsv")})
+    assert costs["geometry_s"] == 4.5 and costs["geometry_max_rss_mb"] == 210.0
+    assert costs["material_s"] is None and costs["total_s"] is None and costs["max_rss_mb"] is None
+    assert stage_costs({"geometry": str(timed)})["total_s"] == 4.5
+    base = {"image_id": ["a", "b"], "fabric_class": ["plain"] * 2, "status": ["fitted"] * 2, "psnr_db": [35.0] * 2,
+            "fold_normal_error_deg": [5.0] * 2, "roughness_error": [0.02] * 2, "base_color_error": [0.02] * 2,
+            "flat_fold_normal_error_deg": [9.0] * 2, "tilt_error_deg": [2.0] * 2, "flat_tilt_error_deg": [4.0] * 2,
+            "roughness": [0.5] * 2, "roughness_true": [0.5] * 2, "period_error": [0.01, 0.02]}
+    untimed = summarise(pd.DataFrame(base | {"total_s": [None, None], "max_rss_mb": [None, None]}))
+    assert "| total_s | median | not measured | <= 30 | not measured |" in untimed
+    assert "| max_rss_mb | max | not measured | <= 2048 | not measured |" in untimed
+    half = summarise(pd.DataFrame(base | {"total_s": [20.0, None], "max_rss_mb": [200.0, None]}))
+    assert "| total_s | median | 20.000 (1 of 2 measured) | <= 30 | yes |" in half

@@ -47,7 +47,7 @@ VARIANTS: dict[str, tuple[str, dict]] = {
 
 def prepare_costs(folder: Path, image: str) -> dict[str, float]:
     """The prepare job's seconds and peak RSS MB, and the photo's native long side."""
-    seconds, rss = benchmark_seconds(folder / "benchmarks" / "prepare" / f"{image}.tsv")
+    seconds, rss = benchmark_seconds(folder / "benchmarks" / "prepare" / f"{image}.tsv") or (float("nan"), float("nan"))
     status = json.loads((folder / "prepared" / image / "status.json").read_text(encoding="utf-8"))
     return {"prepare_s": seconds, "prepare_max_rss_mb": rss, "native_px": max(status.get("source_size") or [0])}
 

@@ -164,7 +164,7 @@ def stage_benchmarks(results: Path, image: str) -> dict[str, tuple[float, float]
     """(seconds, peak RSS MB) of each fit stage of ``image`` from the rules' ``benchmark:`` files; NaN for a stage
     without one (it did not finish)."""
     paths = {stage: results / "benchmarks" / f"fit_{stage}" / f"{image}.tsv" for stage in STAGES}
-    return {stage: benchmark_seconds(path) if path.is_file() else (float("nan"), float("nan")) for stage, path in paths.items()}
+    return {stage: benchmark_seconds(path) or (float("nan"), float("nan")) for stage, path in paths.items()}
 
 
 def fit_costs(results: Path, image: str) -> dict[str, float]:

@@ -169,10 +169,10 @@ def fitted_period_px(normals: np.ndarray, texels_per_pixel: float, weighted: boo
     return None if period is None else float(period / texels_per_pixel)
 
 
-def benchmark_seconds(path: str | os.PathLike[str]) -> tuple[float, float]:
-    """(wall seconds, peak RSS MB) from a Snakemake ``benchmark:`` file; NaN-free (0 when absent)."""
+def benchmark_seconds(path: str | os.PathLike[str]) -> tuple[float, float] | None:
+    """(wall seconds, peak RSS MB) from a Snakemake ``benchmark:`` file; None when it is absent (the job was not timed)."""
     if not Path(path).exists():
-        return 0.0, 0.0
+        return None
     row = pd.read_csv(path, sep="\t").iloc[-1]
     rss = pd.to_numeric(row.get("max_rss", 0.0), errors="coerce")
     return float(row["s"]), float(0.0 if not np.isfinite(rss) else rss)
@@ -208,6 +208,22 @@ def truth_as_fitted(truth_json: str | os.PathLike[str], prepared_status: str | o
     return in_working_frame(truth, status.get("scale"), min(status.get("source_size") or [0]))
 
 
+def stage_costs(benchmarks: dict[str, str]) -> dict[str, float | None]:
+    """Each stage's ``<stage>_s`` and ``<stage>_max_rss_mb``, their ``total_s`` and ``max_rss_mb``.
+
+    A stage without a benchmark file was not timed: its values are None (an empty
+    cell, never a 0 that would pass a time target), and so are the total and the peak.
+    """
+    timings = {stage: benchmark_seconds(path) for stage, path in benchmarks.items()}
+    row: dict[str, float | None] = {}
+    for stage, timing in timings.items():
+        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = timing if timing is not None else (None, None)
+    timed = all(timing is not None for timing in timings.values())
+    row["total_s"] = sum(t[0] for t in timings.values() if t is not None) if timed else None
+    row["max_rss_mb"] = max((t[1] for t in timings.values() if t is not None), default=0.0) if timed else None
+    return row
+
+
 def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: str | os.PathLike[str],
                  benchmarks: dict[str, str], prepared_status: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     """Every error of one image's fit against its ground truth, plus stage times and memory.
@@ -221,10 +237,7 @@ def evaluate_fit(image_id: str, fit_root: str | os.PathLike[str], truth_json: st
     normals_dir = Path(fit_root) / "normals"
     state = json.loads((normals_dir / STATE_FILE).read_text(encoding="utf-8"))
     row["status"] = state["status"]
-    for stage, path in benchmarks.items():
-        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = benchmark_seconds(path)
-    row["total_s"] = sum(row[f"{stage}_s"] for stage in benchmarks)
-    row["max_rss_mb"] = max(row[f"{stage}_max_rss_mb"] for stage in benchmarks)
+    row |= stage_costs(benchmarks)
     if state["status"] != "fitted":
         return row | {"reason": state.get("reason", "")}
     fit, _ = load_state(normals_dir)
@@ -274,15 +287,29 @@ TARGETS = (
 REFERENCE_ERRORS = ("flat_fold_normal_error_deg", "tilt_error_deg", "flat_tilt_error_deg")
 
 
+def target_line(fitted: Any, column: str, stat: str, op: str, bound: float) -> str:
+    """One Markdown row of a target: its statistic over the rows that hold a value, or "not measured".
+
+    Rows whose value is missing (a stage that was not timed) are left out and counted
+    in the row, so a missing time never reads as a met target.
+    """
+    values = pd.to_numeric(fitted[column], errors="coerce").dropna() if column in fitted else pd.Series(dtype=float)
+    if values.empty:
+        return f"| {column} | {stat} | not measured | {op} {bound:g} | not measured |"
+    value = float(getattr(values, stat)())
+    met = value >= bound if op == ">=" else value <= bound
+    missing = len(fitted) - len(values)
+    shown = f"{value:.3f}" + (f" ({len(values)} of {len(fitted)} measured)" if missing else "")
+    return f"| {column} | {stat} | {shown} | {op} {bound:g} | {'yes' if met else 'no'} |"
+
+
 def summarise(table: Any) -> str:
     """Markdown summary: medians against targets, the period hit rate, and per-class medians."""
     fitted = table[table["status"] == "fitted"]
     lines = ["# Inverse renderer accuracy on the synthetic set", "",
              f"{len(fitted)} of {len(table)} images fitted.", "", "| metric | statistic | value | target | met |", "|---|---|---|---|---|"]
     for column, stat, op, bound in TARGETS:
-        value = float(getattr(fitted[column], stat)()) if len(fitted) else 0.0
-        met = value >= bound if op == ">=" else value <= bound
-        lines.append(f"| {column} | {stat} | {value:.3f} | {op} {bound:g} | {'yes' if met else 'no'} |")
+        lines.append(target_line(fitted, column, stat, op, bound))
     for column in REFERENCE_ERRORS:
         if column in fitted and len(fitted):
             lines.append(f"| {column} | median | {float(fitted[column].median()):.3f} | (for reference) | |")
