@@ -15,10 +15,10 @@ from PIL import Image
 
 from clothscope.core.atomic import atomic_dir, write_json
 from clothscope.core.config import settings as config_settings
-from clothscope.core.imageio import ImageRejected, linear_to_srgb, srgb_to_linear, write_exr
+from clothscope.core.imageio import ImageRejected, header_size, linear_to_srgb, srgb_to_linear, write_exr
 from clothscope.core.schema import InputError
 from clothscope.features.structure import StructureSettings
-from clothscope.prepare.image import prepare_image, to_working_resolution
+from clothscope.prepare.image import prepare_image, prepare_memory_mb, to_working_resolution
 
 
 def test_srgb_round_trip_and_known_values():
@@ -480,3 +480,25 @@ def test_8bit_photos_decode_through_the_table_exactly_as_the_transfer_function(t
     decoded = decode(tmp_path / "photo.png", clip_threshold=0.9)
     assert decoded.rgb.dtype == np.float32 and np.array_equal(decoded.rgb, srgb_to_linear(expected))
     assert np.array_equal(decoded.clipped, np.any(expected >= 0.9, axis=2))
+
+
+def test_the_header_gives_the_size_without_decoding_and_none_for_a_broken_file(tmp_path):
+    write_exr(tmp_path / "wide.exr", np.zeros((30, 50, 3), np.float32))
+    Image.new("RGB", (40, 20)).save(tmp_path / "wide.jpg")
+    (tmp_path / "junk.jpg").write_bytes(b"not an image")
+    (tmp_path / "junk.exr").write_bytes(b"\x76\x2f\x31\x01 truncated")
+    assert header_size(tmp_path / "wide.exr") == (50, 30)
+    assert header_size(tmp_path / "wide.jpg") == (40, 20)
+    assert header_size(tmp_path / "junk.jpg") is None and header_size(tmp_path / "junk.exr") is None
+    assert header_size(tmp_path / "missing.png") is None
+
+
+def test_the_prepare_memory_request_grows_with_the_pixels_and_stops_at_the_limit(tmp_path):
+    """A large photo asks for more memory than a small one, never more than the size limit allows; a broken one the least."""
+    Image.new("RGB", (4000, 3000)).save(tmp_path / "large.jpg")
+    Image.new("RGB", (400, 300)).save(tmp_path / "small.jpg")
+    (tmp_path / "junk.jpg").write_bytes(b"not an image")
+    large, small, junk = (prepare_memory_mb(tmp_path / f"{name}.jpg") for name in ("large", "small", "junk"))
+    assert junk <= small < large
+    assert small < prepare_memory_mb(tmp_path / "large.jpg", max_megapixels=1.2) < large
+    assert prepare_memory_mb(tmp_path / "large.jpg", max_megapixels=0.12) == small  # counted at the limit

@@ -42,6 +42,23 @@ def validated_config() -> dict:
     return validate(config, load_schema(SCHEMA_PATH), "config")
 
 
+def declared_resources() -> dict[str, dict[str, float | str]]:
+    """Each rule's ``mem_mb`` (MB) and ``runtime`` (minutes) as the workflow declares them with the default config;
+    ``"per job"`` where the rule computes it from the job's input (``prepare``'s memory)."""
+    from snakemake.api import SnakemakeApi
+    from snakemake.settings.enums import Quietness
+    from snakemake.settings.types import OutputSettings, ResourceSettings
+
+    declared: dict[str, dict[str, float | str]] = {}
+    with SnakemakeApi(OutputSettings(quiet={Quietness.ALL})) as api:
+        workflow = api.workflow(resource_settings=ResourceSettings(cores=2), snakefile=ROOT / "Snakefile", workdir=ROOT)
+        for rule in workflow._workflow.rules:  # the pinned Snakemake's rule objects; no public listing holds resources
+            values = {name: rule.resources[name] for name in ("mem_mb", "runtime") if name in rule.resources}
+            declared[rule.name] = {name: "per job" if value.is_evaluable() else float(value.value)
+                                   for name, value in values.items()}
+    return declared
+
+
 def run_tables(run: Path, sources: tuple[str, ...] = ("fitted", "photo")) -> tuple[dict[str, pd.DataFrame], dict[str, pd.DataFrame]]:
     """A run's feature tables by source, and its tile tables (``features/<source>/tiles/table.parquet``) where written."""
     tables = {s: pd.read_parquet(run / "features" / s / "table.parquet") for s in sources}

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-from harness import ROOT, SUBSET, shown
+from harness import ROOT, SUBSET, declared_resources, shown
 
 from clothscope.core.atomic import write_text
 from clothscope.core.config import schema_defaults
@@ -200,6 +200,7 @@ def workflow_runs(results: Path) -> list[Run]:
         fitted_field_run("microscope-like weaves 1168, fitted", "microscope_1168", "run"),
         fitted_field_run("microscope-like weaves 1170, fitted", "microscope_1170", "run"),
         fitted_field_run("microscope-like weaves 1172, fitted", "microscope_1172", "run"),
+        fitted_field_run("microscope-like weaves 1173, fitted", "microscope_1173", "run"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -407,8 +408,16 @@ def rule_of(tsv: Path, benchmarks: Path) -> str:
     return "/".join(tsv.parent.relative_to(benchmarks).parts[:2])
 
 
-def rule_times_table(benchmarks: Path) -> str:
-    """Median and maximum seconds and peak memory per rule over Snakemake's benchmark files in ``benchmarks``."""
+def headroom(requested: float | str, measured: list[float], scale: float = 1.0) -> str:
+    """A request beside the largest measured value: ``"2000 (7.9x)"``; ``"-"`` with nothing to compare."""
+    if isinstance(requested, str) or not measured or max(measured) <= 0:
+        return str(requested) if isinstance(requested, str) else f"{requested:.0f}"
+    return f"{requested:.0f} ({requested * scale / max(measured):.1f}x)"
+
+
+def rule_times_table(benchmarks: Path, declared: dict[str, dict[str, float | str]]) -> str:
+    """Median and maximum seconds and peak memory per rule over Snakemake's benchmark files in ``benchmarks``,
+    beside each rule's ``mem_mb`` and ``runtime`` request (``declared``) and its headroom over the largest job."""
     seconds: dict[str, list[float]] = defaultdict(list)
     memory: dict[str, list[float]] = defaultdict(list)
     for tsv in sorted(benchmarks.rglob("*.tsv")):
@@ -419,17 +428,24 @@ def rule_times_table(benchmarks: Path) -> str:
     rows = []
     for rule, values in sorted(seconds.items()):
         rss = memory.get(rule, [])
+        request = declared.get(rule.split("/")[0], {})
         rows.append([f"`{rule}`", str(len(values)), f"{statistics.median(values):.1f}", f"{max(values):.1f}",
-                     f"{statistics.median(rss):.0f}" if rss else "-", f"{max(rss):.0f}" if rss else "-"])
-    return render_table(["rule", "jobs", "median s", "max s", "median max RSS MB", "max RSS MB"], rows)
+                     f"{statistics.median(rss):.0f}" if rss else "-", f"{max(rss):.0f}" if rss else "-",
+                     headroom(request.get("mem_mb", "-"), rss), headroom(request.get("runtime", "-"), values, 60.0)])
+    return render_table(["rule", "jobs", "median s", "max s", "median max RSS MB", "max RSS MB", "mem_mb (headroom)",
+                         "runtime min (headroom)"], rows)
 
 
 def rule_times_section(runs: list[Run]) -> str:
-    """Per-rule time and memory of each run, from ``<run>/benchmarks/**/*.tsv``."""
+    """Per-rule time and memory of each run, from ``<run>/benchmarks/**/*.tsv``, beside the rules' requests."""
     parts = ["## Time and memory per rule",
              "Wall-clock seconds and peak resident memory of each job, from Snakemake's `benchmark:` files, as "
              "measured on the machine and under the load of the run that wrote them (two jobs side by side on 2 "
-             "cores by default). A rule missing from a run's table did not run in that folder."]
+             "cores by default). A rule missing from a run's table did not run in that folder. `mem_mb` and "
+             "`runtime` are what each rule asks a cluster for with the default config today, and in brackets how "
+             "many times the largest job of that run they are; `prepare` asks per photo, from its pixel count "
+             "(\"prepare on large photos: time and peak memory\" below)."]
+    declared = declared_resources()
     for run in runs:
         benchmarks = run.folder / "benchmarks"
         files = sorted(benchmarks.rglob("*.tsv")) if benchmarks.is_dir() else []
@@ -440,7 +456,7 @@ def rule_times_section(runs: list[Run]) -> str:
         dates = sorted({written_on(path) for path in files})
         span = dates[0] if len(dates) == 1 else f"{dates[0]} to {dates[-1]}"
         parts += [f"Source: `{shown(benchmarks)}/**/*.tsv` ({len(files)} files, written {span}).",
-                  rule_times_table(benchmarks)]
+                  rule_times_table(benchmarks, declared)]
     return "\n\n".join(parts)
 
 
@@ -784,7 +800,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "holds the reports of a copy of the run whose features and classifier were rerun with "
                         "the overlay `features: {structure: {lbp_scale: canonical}}`, the fits reused; made before it became the default)"),
         BenchmarkReport("prepare on large photos: time and peak memory", ("bench/large_photo.md",),
-                        f"{py}/large_photo.py"),
+                        f"{py}/large_photo.py --formats jpg,png16,exr"),
         BenchmarkReport("What accuracy costs: presets and knobs", ("reports/cost_accuracy.md",), f"{py}/cost_accuracy.py"),
         BenchmarkReport("Fidelity presets on a CUDA GPU and on the CPU", ("bench/gpu/gpu_presets.md",),
                         f"{py}/gpu_presets.py --preset default --jobs 16 && {py}/gpu_presets.py --preset paper --alone 1 --jobs 0"
@@ -825,6 +841,9 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "fit_speed_quiet)"),
         BenchmarkReport("Fit time per image, 2026-11-29 morning", ("bench/fit_speed_1129/fit_speed.md",),
                         f"{py}/fit_speed.py --variants default,fast --out results/bench/fit_speed_1129 (run alone, right "
+                        "after the design run)"),
+        BenchmarkReport("Fit time per image, 2026-12-01 evening", ("bench/fit_speed_1201/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants default,fast --out results/bench/fit_speed_1201 (run alone, right "
                         "after the design run)"),
         BenchmarkReport("Fit time per image on field photos, prepare included, 2026-11-29 morning",
                         ("bench/fit_speed_field_1129/fit_speed.md",),

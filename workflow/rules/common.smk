@@ -12,6 +12,7 @@ from clothscope.core.imageio import file_problem
 from clothscope.core.samples import SAMPLES_SCHEMA_PATH, load_sample_sheet
 from clothscope.core.scheduler import keep_one_scheduler_wakeup
 from clothscope.core.schema import InputError, apply_preset, load_schema, validate
+from clothscope.prepare.image import prepare_memory_mb
 
 PRESETS = os.path.join(workflow.basedir, "config", "presets")
 
@@ -48,6 +49,11 @@ def image_path(wildcards):
     """Input photo of one sample-sheet row; none when it is not a readable file (prepare then rejects the image, saying why)."""
     path = SAMPLES.loc[wildcards.image, "path"]
     return [] if file_problem(path) else path
+
+
+def prepare_mem_mb(wildcards):
+    """The prepare job's memory request: grows with the photo's pixel count (clothscope.prepare.image.prepare_memory_mb)."""
+    return prepare_memory_mb(sheet_path(wildcards), config["prepare"]["max_megapixels"])
 
 
 def sheet_path(wildcards):

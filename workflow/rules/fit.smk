@@ -15,7 +15,7 @@ rule fit_geometry:
         "../../environment.yml"
     threads: config["fit"]["threads"]
     resources:
-        mem_mb=2000,
+        mem_mb=config["fit"]["mem_mb"],
         runtime=config["fit"]["runtime"],
         gpu=GPUS,
     params:
@@ -41,7 +41,7 @@ rule fit_material:
         "../../environment.yml"
     threads: config["fit"]["threads"]
     resources:
-        mem_mb=2000,
+        mem_mb=config["fit"]["mem_mb"],
         runtime=config["fit"]["runtime"],
         gpu=GPUS,
     params:
@@ -73,7 +73,7 @@ rule fit_normals:
         "../../environment.yml"
     threads: config["fit"]["threads"]
     resources:
-        mem_mb=2000,
+        mem_mb=config["fit"]["mem_mb"],
         runtime=config["fit"]["runtime"],
         gpu=GPUS,
     params:

@@ -15,7 +15,7 @@ rule prepare:
         "../../environment.yml"
     threads: 1
     resources:
-        mem_mb=2000,
+        mem_mb=prepare_mem_mb,
         runtime=5,
     params:
         path=sheet_path,

@@ -243,6 +243,43 @@ def file_problem(path: str | os.PathLike[str]) -> str | None:
     return None
 
 
+def _exr_header_size(path: Path) -> tuple[int, int] | None:
+    """Width and height from an OpenEXR file's ``dataWindow`` attribute (a scan of its header only)."""
+    with open(path, "rb") as f:
+        header = f.read(65536)
+    if header[:4] != b"\x76\x2f\x31\x01":
+        return None
+    at = 8
+    while at < len(header) and header[at] != 0:
+        name_end = header.index(b"\0", at)
+        type_end = header.index(b"\0", name_end + 1)
+        size = int.from_bytes(header[type_end + 1:type_end + 5], "little", signed=True)
+        value = header[type_end + 5:type_end + 5 + size]
+        if header[at:name_end] == b"dataWindow" and len(value) == 16:
+            x0, y0, x1, y1 = (int.from_bytes(value[i:i + 4], "little", signed=True) for i in range(0, 16, 4))
+            return x1 - x0 + 1, y1 - y0 + 1
+        at = type_end + 5 + size
+    return None
+
+
+def header_size(path: str | os.PathLike[str]) -> tuple[int, int] | None:
+    """An image file's width and height from its header, no pixel decoded; None when it cannot be read."""
+    path = Path(path)
+    try:
+        if path.suffix.lower() in EXR_SUFFIXES:
+            return _exr_header_size(path)
+        pillow_limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                with Image.open(path) as img:
+                    return img.width, img.height
+        finally:
+            Image.MAX_IMAGE_PIXELS = pillow_limit
+    except (OSError, ValueError, SyntaxError, Image.UnidentifiedImageError):
+        return None
+
+
 def decode_image(
     path: str | os.PathLike[str], min_px: int, max_megapixels: float, clip_threshold: float
 ) -> DecodedImage:

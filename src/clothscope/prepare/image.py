@@ -27,7 +27,15 @@ from PIL import Image
 from scipy import ndimage
 
 from clothscope.core.atomic import atomic_dir, write_json
-from clothscope.core.imageio import ImageRejected, decode_image, linear_to_srgb, luminance, write_exr, write_png
+from clothscope.core.imageio import (
+    ImageRejected,
+    decode_image,
+    header_size,
+    linear_to_srgb,
+    luminance,
+    write_exr,
+    write_png,
+)
 from clothscope.features.structure import (
     Lattice,
     Spectrum,
@@ -85,6 +93,29 @@ class PrepareSettings:
             raise ValueError(f"period_band must be [low, high] with low < high, got {list(self.period_band)}")
         object.__setattr__(self, "period_band", (float(low), float(high)))
         check_period_peak(self.period_peak)
+
+
+#: Peak memory of one prepare process, from ``workflow/benchmarks/large_photo.py`` (12-100 MP): at most this
+#: many MB with Python and its imports, plus so many MB per decoded megapixel by file type (8-bit JPEG, TIFF and
+#: the like decode through tables; a 16-bit PNG through float copies, so any PNG is counted at that rate).
+PREPARE_BASE_MB = 250
+PREPARE_MB_PER_MEGAPIXEL = {".exr": 27.0, ".png": 66.0}
+PREPARE_MB_PER_MEGAPIXEL_8BIT = 20.0
+#: The request is the expected peak times this, plus what a cluster job's own Snakemake processes hold.
+MEMORY_HEADROOM = 1.5
+SNAKEMAKE_JOB_MB = 300
+
+
+def prepare_memory_mb(path: str | os.PathLike[str], max_megapixels: float = float("inf")) -> int:
+    """The ``prepare`` job's memory request (MB) for the photo at ``path``, from its header's pixel count.
+
+    A photo above ``max_megapixels`` is rejected from its header, so it is counted at that
+    limit; an unreadable one (the job only records why) at zero megapixels.
+    """
+    size = header_size(path)
+    megapixels = min(size[0] * size[1] / 1e6, max_megapixels) if size else 0.0
+    per_megapixel = PREPARE_MB_PER_MEGAPIXEL.get(Path(path).suffix.lower(), PREPARE_MB_PER_MEGAPIXEL_8BIT)
+    return int(np.ceil(MEMORY_HEADROOM * (PREPARE_BASE_MB + per_megapixel * megapixels) + SNAKEMAKE_JOB_MB))
 
 
 def check_period_peak(peak: str) -> None:
