@@ -502,3 +502,19 @@ def test_the_prepare_memory_request_grows_with_the_pixels_and_stops_at_the_limit
     assert junk <= small < large
     assert small < prepare_memory_mb(tmp_path / "large.jpg", max_megapixels=1.2) < large
     assert prepare_memory_mb(tmp_path / "large.jpg", max_megapixels=0.12) == small  # counted at the limit
+
+
+def test_16_bit_codes_decode_through_the_table_exactly_as_the_transfer_function(tmp_path):
+    """16-bit PNG codes (colour, and grey with alpha) give the values and clipped mask of the float formula, bit for bit."""
+    from clothscope.core.imageio import _mitsuba_scalar
+
+    mi = _mitsuba_scalar()
+    codes = np.random.default_rng(1).integers(0, 65536, (70, 80, 3), dtype=np.uint16)
+    mi.Bitmap(codes, mi.Bitmap.PixelFormat.RGB).write(str(tmp_path / "c.png"))
+    mi.Bitmap(codes[..., :2].copy(), mi.Bitmap.PixelFormat.YA).write(str(tmp_path / "ya.png"))
+    for name, expected in (("c.png", codes), ("ya.png", np.repeat(codes[..., :1], 3, axis=2))):
+        decoded = decode(tmp_path / name)
+        encoded = expected.astype(np.float32) / 65535.0
+        assert decoded.bit_depth == 16 and decoded.rgb.shape == (70, 80, 3)
+        assert np.array_equal(decoded.rgb, srgb_to_linear(encoded))
+        assert np.array_equal(decoded.clipped, np.any(encoded >= 0.98, axis=2))

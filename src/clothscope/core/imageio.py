@@ -70,11 +70,12 @@ def _check_size(path: Path, width: int, height: int, min_px: int, max_megapixels
 
 
 def _normalised_channels(img: Image.Image) -> tuple[np.ndarray, int, list[str]]:
-    """Pillow image -> (H, W, C) encoded values (uint8 codes for 8-bit images, else float32 in [0, 1]), bit depth, notes."""
+    """Pillow image -> (H, W, C) encoded values (uint8 or uint16 codes for 8- and 16-bit images, else float32 in
+    [0, 1]), bit depth, notes."""
     notes: list[str] = []
     mode = img.mode
     if mode in ("I;16", "I;16B", "I;16L", "I;16N"):
-        return (np.asarray(img, dtype=np.float32) / 65535.0)[..., None], 16, notes
+        return np.asarray(img).astype(np.uint16)[..., None], 16, notes  # codes, decoded through a table like 8-bit ones
     if mode == "I":
         arr = np.asarray(img, dtype=np.float64)
         scale = 65535.0 if arr.max(initial=0) > 255 else 255.0
@@ -95,10 +96,11 @@ def _normalised_channels(img: Image.Image) -> tuple[np.ndarray, int, list[str]]:
 
 
 def _decode_png16(path: Path) -> np.ndarray:
-    """16-bit colour PNG pixels via Mitsuba's Bitmap (Pillow truncates them)."""
+    """16-bit colour PNG codes (uint16, alpha dropped) via Mitsuba's Bitmap (Pillow truncates them)."""
     mi = _mitsuba_scalar()
     with _thread_pool_of_two():
-        return np.array(mi.Bitmap(str(path)), dtype=np.float32)[..., :3] / 65535.0
+        codes = np.array(mi.Bitmap(str(path)), dtype=np.uint16)
+    return codes[..., :1] if codes.shape[2] == 2 else codes[..., :3]  # grey + alpha: the grey
 
 
 def _mitsuba_scalar():
@@ -170,7 +172,7 @@ def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold
     encoded = _to_rgb(encoded)
     if fmt == "TIFF" and depth == 8 and ";16" in rawmode:
         notes.append("16-bit colour TIFF decoded at 8-bit precision")
-    if encoded.dtype == np.uint8:
+    if encoded.dtype in (np.uint8, np.uint16):
         rgb, clipped = _decode_codes(encoded, clip_threshold)
         return DecodedImage(rgb=rgb, clipped=clipped, notes=notes, source_format=fmt, bit_depth=depth)
     bad = int(np.count_nonzero(~np.isfinite(encoded).all(axis=2)))
@@ -182,12 +184,13 @@ def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold
 
 
 def _decode_codes(codes: np.ndarray, clip_threshold: float) -> tuple[np.ndarray, np.ndarray]:
-    """Linear RGB (float32) and clipped mask of (H, W, 3) 8-bit sRGB codes, through 256-entry tables.
+    """Linear RGB (float32) and clipped mask of (H, W, 3) 8- or 16-bit sRGB codes, through 256- or 65536-entry tables.
 
-    Same values as :func:`srgb_to_linear` on ``codes / 255``, with 12 bytes per
-    pixel of output and no float temporaries.
+    Same values as :func:`srgb_to_linear` on ``codes / 255`` (``/ 65535``), with
+    12 bytes per pixel of output and no float temporaries.
     """
-    encoded = np.arange(256, dtype=np.float32) / 255.0
+    top = np.iinfo(codes.dtype).max
+    encoded = np.arange(top + 1, dtype=np.float32) / float(top)
     clipped = np.any((encoded >= clip_threshold)[codes], axis=2)
     return srgb_to_linear(encoded)[codes], clipped
 

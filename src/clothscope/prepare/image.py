@@ -96,10 +96,10 @@ class PrepareSettings:
 
 
 #: Peak memory of one prepare process, from ``workflow/benchmarks/large_photo.py`` (12-100 MP): at most this
-#: many MB with Python and its imports, plus so many MB per decoded megapixel by file type (8-bit JPEG, TIFF and
-#: the like decode through tables; a 16-bit PNG through float copies, so any PNG is counted at that rate).
+#: many MB with Python and its imports, plus so many MB per decoded megapixel by file type (8- and 16-bit codes
+#: decode through tables; a 16-bit PNG also passes through Mitsuba's bitmap, so any PNG is counted at its rate).
 PREPARE_BASE_MB = 250
-PREPARE_MB_PER_MEGAPIXEL = {".exr": 27.0, ".png": 66.0}
+PREPARE_MB_PER_MEGAPIXEL = {".exr": 27.0, ".png": 23.0}
 PREPARE_MB_PER_MEGAPIXEL_8BIT = 20.0
 #: The request is the expected peak times this, plus what a cluster job's own Snakemake processes hold.
 MEMORY_HEADROOM = 1.5
