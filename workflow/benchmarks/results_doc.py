@@ -190,6 +190,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1167", "holdout_1167", "holdout"),
         rendered_run("held-out 1169", "holdout_1169", "holdout"),
         rendered_run("held-out 1171", "holdout_1171", "holdout"),
+        rendered_run("held-out 1175", "holdout_1175", "holdout"),
         fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
@@ -201,6 +202,7 @@ def workflow_runs(results: Path) -> list[Run]:
         fitted_field_run("microscope-like weaves 1170, fitted", "microscope_1170", "run"),
         fitted_field_run("microscope-like weaves 1172, fitted", "microscope_1172", "run"),
         fitted_field_run("microscope-like weaves 1173, fitted", "microscope_1173", "run"),
+        fitted_field_run("microscope-like weaves 1174, fitted", "microscope_1174", "run"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -722,6 +724,17 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "(the rule's part b)", ("bench/prune_spoiled_fresh.md",),
                         f"{py}/record_candidates.py results/holdout_1169/run results/microscope_1170/run --prune 0.05 "
                         "--fitted-of-others 1 --name prune_spoiled_fresh"),
+        BenchmarkReport("A looser prune (0.2) against 0.05: screening on design and microscope-like 1173",
+                        ("bench/prune_loose_screen.md",),
+                        f"{py}/record_candidates.py results results/microscope_1173/run --prune 0.05 0.2 "
+                        "--name prune_loose_screen"),
+        BenchmarkReport("A looser prune (0.2) against 0.05: two fresh sets", ("bench/prune_loose_fresh.md",),
+                        f"{py}/record_candidates.py results/microscope_1174/run results/holdout_1175/run --prune 0.05 0.2 "
+                        "--name prune_loose_fresh"),
+        BenchmarkReport("A looser prune (0.2) against 0.05: two fresh sets with each image given another's fitted "
+                        "features", ("bench/prune_loose_spoiled.md",),
+                        f"{py}/record_candidates.py results/microscope_1174/run results/holdout_1175/run --prune 0.05 0.2 "
+                        "--fitted-of-others 1 --name prune_loose_spoiled"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
