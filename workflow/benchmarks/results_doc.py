@@ -728,13 +728,14 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/prune_loose_screen.md",),
                         f"{py}/record_candidates.py results results/microscope_1173/run --prune 0.05 0.2 "
                         "--name prune_loose_screen"),
-        BenchmarkReport("A looser prune (0.2) against 0.05: two fresh sets", ("bench/prune_loose_fresh.md",),
-                        f"{py}/record_candidates.py results/microscope_1174/run results/holdout_1175/run --prune 0.05 0.2 "
-                        "--name prune_loose_fresh"),
-        BenchmarkReport("A looser prune (0.2) against 0.05: two fresh sets with each image given another's fitted "
-                        "features", ("bench/prune_loose_spoiled.md",),
-                        f"{py}/record_candidates.py results/microscope_1174/run results/holdout_1175/run --prune 0.05 0.2 "
-                        "--fitted-of-others 1 --name prune_loose_spoiled"),
+        *(BenchmarkReport(f"A looser prune (0.2) against 0.05: fresh {label}{spoiled_label}",
+                          (f"bench/prune_loose{spoiled}_{seed}.md",),
+                          f"{py}/record_candidates.py results/{folder}/run --prune 0.05 0.2{option} "
+                          f"--name prune_loose{spoiled}_{seed}")
+          for seed, folder, label in (("1174", "microscope_1174", "microscope-like 1174"),
+                                      ("1175", "holdout_1175", "held-out 1175"))
+          for spoiled, option, spoiled_label in (("", "", ""), ("_spoiled", " --fitted-of-others 1",
+                                                                  ", each image given another's fitted features"))),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
