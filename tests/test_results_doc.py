@@ -82,3 +82,15 @@ def test_runs_whose_reports_are_not_here_keep_their_earlier_columns(tmp_path):
     assert "| `structure_photo` | photo structure | 50.0% (5/10) | 75.0% (6/8) |" in section
     assert "| `paper_truth` | truth | - | 50.0% (4/8) |" in section
     assert "- here: Inverse rendering cost 10 points.\n- away: Inverse rendering bought 3 points." in section
+
+
+def test_a_run_not_on_this_machine_keeps_its_earlier_rule_table(tmp_path):
+    """The per-rule section keeps a run's measured table from the page being replaced; a run never measured says how."""
+    earlier = ("## Time and memory per rule\n\nintro\n\n### gone\n\nSource: `x/**/*.tsv` (3 files).\n\n| rule | jobs |\n|---|---|\n"
+               "| `prepare` | 3 |\n\n### never\n\nnot measured: run `make never`")
+    runs = [results_doc.Run("gone", tmp_path / "gone", tmp_path / "s.tsv", "make gone"),
+            results_doc.Run("never", tmp_path / "never", tmp_path / "s.tsv", "make never")]
+    section = results_doc.rule_times_section(runs, earlier)
+    assert "### gone\n\nSource: `x/**/*.tsv` (3 files).\n\n| rule | jobs |\n|---|---|\n| `prepare` | 3 |" in section
+    assert "### never\n\nnot measured: run `make never`" in section
+    assert "make gone" not in section

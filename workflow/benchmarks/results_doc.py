@@ -438,8 +438,15 @@ def rule_times_table(benchmarks: Path, declared: dict[str, dict[str, float | str
                          "runtime min (headroom)"], rows)
 
 
-def rule_times_section(runs: list[Run]) -> str:
-    """Per-rule time and memory of each run, from ``<run>/benchmarks/**/*.tsv``, beside the rules' requests."""
+def earlier_subsections(section: str) -> dict[str, str]:
+    """Label -> text of each ``### `` subsection of an earlier page's section (the text under its heading)."""
+    parts = ("\n" + section).split("\n### ")[1:]
+    return {part.splitlines()[0]: part.partition("\n")[2].strip() for part in parts}
+
+
+def rule_times_section(runs: list[Run], earlier: str = "") -> str:
+    """Per-rule time and memory of each run, from ``<run>/benchmarks/**/*.tsv``, beside the rules' requests;
+    a run whose files are not here keeps its table from ``earlier`` (the page's previous section), if it had one."""
     parts = ["## Time and memory per rule",
              "Wall-clock seconds and peak resident memory of each job, from Snakemake's `benchmark:` files, as "
              "measured on the machine and under the load of the run that wrote them (two jobs side by side on 2 "
@@ -447,13 +454,14 @@ def rule_times_section(runs: list[Run]) -> str:
              "`runtime` are what each rule asks a cluster for with the default config today, and in brackets how "
              "many times the largest job of that run they are; `prepare` asks per photo, from its pixel count "
              "(\"prepare on large photos: time and peak memory\" below)."]
-    declared = declared_resources()
+    declared, kept = declared_resources(), earlier_subsections(earlier)
     for run in runs:
         benchmarks = run.folder / "benchmarks"
         files = sorted(benchmarks.rglob("*.tsv")) if benchmarks.is_dir() else []
         parts.append(f"### {run.label}")
         if not files:
-            parts.append(not_measured(run.command))
+            previous = kept.get(run.label, "")
+            parts.append(previous if previous.startswith("Source:") else not_measured(run.command))
             continue
         dates = sorted({written_on(path) for path in files})
         span = dates[0] if len(dates) == 1 else f"{dates[0]} to {dates[-1]}"
@@ -926,7 +934,7 @@ def page_sections(results: Path, earlier: dict[str, str] | None = None) -> list[
                 classifier_section(runs, kept.get("Classifier of record (LOOCV)", "")),
                 feature_sets_section(runs, kept.get("Feature sets side by side", "")),
                 fit_accuracy_section(runs, kept.get("Inverse renderer against the ground truth", "")),
-                rule_times_section(runs)]
+                rule_times_section(runs, kept.get("Time and memory per rule", ""))]
     sections += [embedded_section(title, paths, command) for title, paths, command in workflow_reports(results)]
     sections += [embedded_section(report.title, [results / path for path in report.candidates], report.command)
                  for report in benchmark_reports(results)]
