@@ -135,14 +135,23 @@ def _to_rgb(channels: np.ndarray) -> np.ndarray:
     return channels[..., :3]
 
 
-def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold: float) -> DecodedImage:
-    """Decode PNG, JPEG, TIFF, BMP, WebP (or anything Pillow reads) with EXIF orientation applied."""
-    # Our own size limit (checked from the header, before any pixel is decoded)
-    # replaces Pillow's decompression-bomb guard, so the message names the setting.
+@contextlib.contextmanager
+def _without_pillow_size_guard() -> Iterator[None]:
+    """Open images with Pillow's decompression-bomb guard off: our own size limit (checked from the header,
+    before any pixel is decoded) replaces it, so the message names the setting."""
     pillow_limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            yield
+    finally:
+        Image.MAX_IMAGE_PIXELS = pillow_limit
+
+
+def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold: float) -> DecodedImage:
+    """Decode PNG, JPEG, TIFF, BMP, WebP (or anything Pillow reads) with EXIF orientation applied."""
+    try:
+        with _without_pillow_size_guard():
             img = Image.open(path)
             _check_size(path, img.width, img.height, min_px, max_megapixels)
             rawmode = img.tile[0].args if img.tile and isinstance(img.tile[0].args, str) else ""
@@ -157,8 +166,6 @@ def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold
         raise _reject(path, "not a readable image (unknown or corrupt format)") from None
     except (OSError, SyntaxError, ValueError) as err:
         raise _reject(path, f"cannot decode {path.suffix or 'file'}: {err}") from None
-    finally:
-        Image.MAX_IMAGE_PIXELS = pillow_limit
     orientation = img.getexif().get(0x0112, 1)
     if fmt == "PNG" and rawmode in _PNG16_RAWMODES:
         encoded, depth, notes = _decode_png16(path), 16, []
@@ -271,14 +278,8 @@ def header_size(path: str | os.PathLike[str]) -> tuple[int, int] | None:
     try:
         if path.suffix.lower() in EXR_SUFFIXES:
             return _exr_header_size(path)
-        pillow_limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                with Image.open(path) as img:
-                    return img.width, img.height
-        finally:
-            Image.MAX_IMAGE_PIXELS = pillow_limit
+        with _without_pillow_size_guard(), Image.open(path) as img:
+            return img.width, img.height
     except (OSError, ValueError, SyntaxError, Image.UnidentifiedImageError):
         return None
 
