@@ -438,10 +438,15 @@ def rule_times_table(benchmarks: Path, declared: dict[str, dict[str, float | str
                          "runtime min (headroom)"], rows)
 
 
+def headed_parts(text: str, marker: str) -> dict[str, str]:
+    """Heading -> its part (heading line included, trailing space dropped) of each ``marker`` heading in ``text``."""
+    parts = ("\n" + text).split(f"\n{marker} ")[1:]
+    return {part.splitlines()[0]: f"{marker} " + part.rstrip() for part in parts}
+
+
 def earlier_subsections(section: str) -> dict[str, str]:
     """Label -> text of each ``### `` subsection of an earlier page's section (the text under its heading)."""
-    parts = ("\n" + section).split("\n### ")[1:]
-    return {part.splitlines()[0]: part.partition("\n")[2].strip() for part in parts}
+    return {label: part.partition("\n")[2].strip() for label, part in headed_parts(section, "###").items()}
 
 
 def rule_times_section(runs: list[Run], earlier: str = "") -> str:
@@ -948,8 +953,7 @@ def section_title(section: str) -> str:
 
 def earlier_sections(page: str) -> dict[str, str]:
     """Title -> section text of a page this script wrote (its ``## `` sections)."""
-    parts = ("\n" + page).split("\n## ")[1:]
-    return {part.splitlines()[0]: "## " + part.rstrip() for part in parts}
+    return headed_parts(page, "##")
 
 
 def keep_earlier(sections: list[str], earlier: dict[str, str]) -> list[str]:
