@@ -217,10 +217,11 @@ def stage_costs(benchmarks: dict[str, str]) -> dict[str, float | None]:
     timings = {stage: benchmark_seconds(path) for stage, path in benchmarks.items()}
     row: dict[str, float | None] = {}
     for stage, timing in timings.items():
-        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = timing if timing is not None else (None, None)
-    timed = all(timing is not None for timing in timings.values())
-    row["total_s"] = sum(t[0] for t in timings.values() if t is not None) if timed else None
-    row["max_rss_mb"] = max((t[1] for t in timings.values() if t is not None), default=0.0) if timed else None
+        row[f"{stage}_s"], row[f"{stage}_max_rss_mb"] = timing or (None, None)
+    measured = [timing for timing in timings.values() if timing is not None]
+    timed = len(measured) == len(timings)
+    row["total_s"] = sum(seconds for seconds, _ in measured) if timed else None
+    row["max_rss_mb"] = max((rss for _, rss in measured), default=0.0) if timed else None
     return row
 
 
