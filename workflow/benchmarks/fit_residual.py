@@ -1,0 +1,119 @@
+"""Benchmark: the share of the photo the fit leaves unexplained, as a fitted column beside the BRDF.
+
+    .venv/bin/python workflow/benchmarks/fit_residual.py RUN [RUN ...] [--name fit_residual] [--fitted-of-others SEED]
+
+For each run folder, every fitted image gets the column ``unexplained``: the log of its normal-map stage's
+residual energy over the photo's own variance (:func:`unexplained_share`), read from ``compare.png`` (the photo and
+the fit's preview, 8-bit sRGB, turned back to linear). The feature-set report's fitted sets and the classifier of
+record (as the ``classify`` rule runs them) are scored on the run's tables with the column in the BRDF columns and
+without it. ``--fitted-of-others SEED`` first gives each image another image's fitted features (and its column),
+the failure the record's pruning guards against. Writes ``results/bench/<name>.{csv,md}``. Nothing is chosen here
+(``docs/design.md``, "What the fit cannot explain").
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from class_subsets import classify_config
+from harness import ROOT, publish, record_inputs, record_loocv, run_tables, shown
+from record_candidates import fitted_of_others
+
+import clothscope.classify.feature_sets as feature_sets
+from clothscope.core.imageio import read_png, srgb_to_linear
+from clothscope.fit.outputs import COMPARISON_FILE
+
+MODES = ("without", "with the column")
+#: The floor of the share before its log (a fit that explains the photo to the last bit).
+FLOOR = 1e-6
+GAP_PX = 4  # the white gap between the panels of compare.png
+
+
+def unexplained_share(compare: Path) -> float:
+    """Residual energy of the fit's preview over the photo's variance about its mean, summed over RGB (linear)."""
+    panels = read_png(compare)[..., :3].astype(np.float64)
+    size = (panels.shape[1] - 2 * GAP_PX) // 3
+    photo = srgb_to_linear(panels[:, :size])
+    fit = srgb_to_linear(panels[:, size + GAP_PX:2 * size + GAP_PX])
+    spread = float(((photo - photo.mean(axis=(0, 1))) ** 2).sum())
+    return float(((fit - photo) ** 2).sum() / max(spread, FLOOR))
+
+
+@contextlib.contextmanager
+def brdf_columns(columns: tuple[str, ...]) -> Iterator[None]:
+    """The feature groups read ``columns`` as the BRDF columns while the block runs."""
+    kept = feature_sets.BRDF_COLUMNS
+    feature_sets.BRDF_COLUMNS = columns
+    try:
+        yield
+    finally:
+        feature_sets.BRDF_COLUMNS = kept
+
+
+def with_share(run: Path, fitted: pd.DataFrame) -> pd.DataFrame:
+    """The fitted table with ``unexplained`` (log share; 0 where an image has no comparison)."""
+    shares = []
+    for image in fitted["image_id"].astype(str):
+        compare = run / "fit" / image / "normals" / COMPARISON_FILE
+        shares.append(np.log(max(unexplained_share(compare), FLOOR)) if compare.is_file() else 0.0)
+    return fitted.assign(unexplained=shares)
+
+
+def scored(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame], settings: dict) -> list[dict]:
+    """The feature-set report's fitted sets (held-out images scored with their tiles, as the rule does) and the
+    classifier of record on ``tables``."""
+    report = feature_sets.compare_feature_sets(tables, settings["reg"], settings["subspace"], tiles,
+                                               test_tiles=settings["test_tiles"] == "mean")
+    rows = [{"feature_set": r.feature_set, "correct": int(r.correct), "n": int(r.n)}
+            for r in report[report["status"] == "ok"].itertuples() if r.feature_set.endswith("fitted")]
+    ok, joined, candidates = record_inputs(tables, tiles, settings["feature_set"])
+    result = record_loocv(ok, candidates, joined, settings)
+    return rows + [{"feature_set": "classifier of record", "correct": result.correct, "n": result.n}]
+
+
+def run_rows(run: Path, spoil_seed: int | None) -> list[dict]:
+    """The fitted sets and the record of one run, without the column and with it in the BRDF columns."""
+    tables, tiles = run_tables(run)
+    tables = {**tables, "fitted": with_share(run, tables["fitted"])}
+    if spoil_seed is not None:
+        tables, tiles = fitted_of_others(tables, tiles, spoil_seed)
+    settings = classify_config()
+    base = tuple(c for c in feature_sets.BRDF_COLUMNS if c != "unexplained")
+    label = shown(run) + ("" if spoil_seed is None else f" (fitted features of other images, seed {spoil_seed})")
+    rows = []
+    for mode, columns in zip(MODES, (base, (*base, "unexplained"))):
+        with brdf_columns(columns):
+            rows += [{"run": label, "mode": mode, **row} for row in scored(tables, tiles, settings)]
+    return rows
+
+
+def markdown(table: pd.DataFrame) -> str:
+    """One line per run and feature set: images right without the column and with it."""
+    wide = table.pivot_table(index=["run", "feature_set"], columns="mode", values="correct", sort=False).reset_index()
+    n = table.groupby("run")["n"].max()
+    lines = ["LOOCV images right, the fitted sets and the classifier of record, without and with the log share of the "
+             "photo the fit leaves unexplained among the BRDF columns:", "",
+             f"| run | feature set | {MODES[0]} | {MODES[1]} |", "|---|---|---|---|"]
+    lines += [f"| `{r['run']}` | {r['feature_set']} | {int(r[MODES[0]])}/{n[r['run']]} | {int(r[MODES[1]])}/{n[r['run']]} |"
+              for _, r in wide.iterrows()]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("runs", nargs="+", help="run folders (each with features/fitted, features/photo and fit/)")
+    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
+    parser.add_argument("--name", default="fit_residual")
+    parser.add_argument("--fitted-of-others", type=int, metavar="SEED",
+                        help="give each image the fitted features of another (a permutation drawn with SEED)")
+    args = parser.parse_args()
+    table = pd.DataFrame([row for run in args.runs for row in run_rows(ROOT / run, args.fitted_of_others)])
+    publish(args.out, args.name, table, markdown(table))
+
+
+if __name__ == "__main__":
+    main()
