@@ -141,10 +141,12 @@ def test_truth_and_fitted_loaders(tmp_path):
     write_exr(folder / "normal.exr", normals)
     write_exr(folder / "height.exr", np.repeat(relief(normals)[..., None], 3, axis=2).astype(np.float32))
     state = {"status": "fitted", "material": {"base_color": [0.5, 0.5, 0.5], "specular": 0.4, "roughness": 0.6},
-             "texels_per_pixel": 0.94, "runtime": {"mitsuba_variant": "llvm_ad_rgb"}, "scene": {"light": {"position": [0.0, 3.0, 4.0]}}}
+             "texels_per_pixel": 0.94, "runtime": {"mitsuba_variant": "llvm_ad_rgb"}, "scene": {"light": {"position": [0.0, 3.0, 4.0]}},
+             "unexplained_share": 0.05}
     (folder / "state.json").write_text(json.dumps(state))
     fitted = load_fitted(folder, "relief")
     assert fitted.status == "ok" and fitted.mitsuba_variant == "llvm_ad_rgb" and fitted.texels_per_pixel == 0.94
+    assert fitted.unexplained == pytest.approx(np.log(0.05))
     assert np.array_equal(fitted.normals, normals) and fitted.normals.min() < 0
     assert np.allclose(fitted.field, relief(normals))
     lit = load_fitted(folder, "shading")
@@ -155,6 +157,11 @@ def test_truth_and_fitted_loaders(tmp_path):
     (folder / "state.json").write_text(json.dumps({**state, "scene": {}}))
     unlit = load_fitted(folder, "shading")
     assert unlit.status == "failed" and "KeyError" in unlit.reason and unlit.field is None
+    for share, problem in ((None, "no unexplained_share"), (float("nan"), "unexplained_share is not finite")):
+        older = {k: v for k, v in state.items() if k != "unexplained_share"} | ({} if share is None else {"unexplained_share": share})
+        (folder / "state.json").write_text(json.dumps(older))
+        unusable = load_fitted(folder, "relief")
+        assert unusable.status == "failed" and problem in unusable.reason and "nan" not in unusable.reason.split(":")[0]
     (folder / "state.json").write_text(json.dumps({"status": "skipped", "reason": "prepare: rejected"}))
     skipped = load_fitted(folder, "relief")
     assert skipped.status == "skipped" and skipped.reason == "prepare: rejected"

@@ -19,6 +19,7 @@ from clothscope.fit.effects import Evidence, geometry_evidence, plan_stage
 from clothscope.fit.loop import LoopSettings, optimise, render_seed
 from clothscope.fit.model import BSDF_KEYS, FitCamera, FitLight, FitScene, Material, build_scene, plane_grid
 from clothscope.fit.normals import NormalSettings, cavity_factor_np, height_to_normals_np, initial_height, relief_prior
+from clothscope.fit.target import Target, unexplained_share
 from clothscope.prepare.image import prepare_image
 
 LOG = logging.getLogger("test_fit")
@@ -83,7 +84,7 @@ def test_tiny_fit_of_a_synthetic_photo_writes_every_output(tmp_path):
             assert (folder / name).stat().st_size > 0, (stage, name)
     assert (tmp_path / "fit" / "material" / "material.json").exists()
     assert state["effects"][0]["integrator"] == "direct_unshadowed"
-    assert state["psnr_db"] > 15.0
+    assert state["psnr_db"] > 15.0 and 0.0 < state["unexplained_share"] < 1.0
     assert_all_finite(state, tmp_path / "fit" / "normals")
     geometry = json.loads((tmp_path / "fit" / "geometry" / "state.json").read_text())
     assert 0.0 <= geometry["tilt"]["degrees"] < 20.0 and len(geometry["tilt"]["periods_px"]) <= 2
@@ -198,6 +199,28 @@ def test_relief_prior_only_under_a_light_near_the_camera(polar, smoothness, near
     assert fitted_with.smoothness == expected == record["smoothness"]
     assert record["near_camera"] == (polar < 10.0) and record["light_from_camera_deg"] == polar
     assert replace(fitted_with, smoothness=settings.smoothness) == settings  # nothing else changes
+
+
+def test_unexplained_share_is_zero_for_the_photo_one_for_its_mean_and_ignores_colour_gain_and_clipped_pixels():
+    rng = np.random.default_rng(3)
+    photo = rng.uniform(0.1, 0.6, (16, 16, 3)).astype(np.float32)
+    weight = np.ones((16, 16), np.float32)
+    target = Target(photo, weight)
+    assert unexplained_share(photo, target) == 0.0
+    assert unexplained_share(np.broadcast_to(photo.mean(axis=(0, 1)), photo.shape), target) == pytest.approx(1.0)
+    fit = photo + rng.normal(0.0, 0.05, photo.shape).astype(np.float32)
+    gain = np.array([0.5, 1.0, 2.0], np.float32)
+    assert unexplained_share(fit * gain, Target(photo * gain, weight)) == pytest.approx(
+        unexplained_share(fit, target), rel=0.3)  # channels weigh by their own contrast, so only near, not equal
+    assert unexplained_share(fit * 3.0, Target(photo * 3.0, weight)) == pytest.approx(unexplained_share(fit, target))
+    clipped = weight.copy()
+    clipped[:4] = 0.0
+    spoiled = fit.copy()
+    spoiled[:4] = 100.0  # a blown-out band the fit cannot and need not explain
+    assert unexplained_share(spoiled, Target(photo, clipped)) == pytest.approx(
+        unexplained_share(fit[4:], Target(photo[4:], weight[4:])))
+    flat = np.full((8, 8, 3), 0.5, np.float32)
+    assert math.isfinite(unexplained_share(flat + 0.1, Target(flat, np.ones((8, 8), np.float32))))
 
 
 def test_rejected_image_is_skipped_by_every_stage(tmp_path):

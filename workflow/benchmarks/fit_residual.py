@@ -55,7 +55,10 @@ def brdf_columns(columns: tuple[str, ...]) -> Iterator[None]:
 
 
 def with_share(run: Path, fitted: pd.DataFrame) -> pd.DataFrame:
-    """The fitted table with ``unexplained`` (log share; 0 where an image has no comparison)."""
+    """The fitted table with ``unexplained`` (log share; 0 where an image has no comparison), unless its fits
+    recorded their own (``state.json``'s ``unexplained_share``, in the table since the rule passed)."""
+    if "unexplained" in fitted.columns:
+        return fitted
     shares = []
     for image in fitted["image_id"].astype(str):
         compare = run / "fit" / image / "normals" / COMPARISON_FILE

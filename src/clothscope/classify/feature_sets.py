@@ -28,9 +28,11 @@ from clothscope.features.structure import (
     TILE_FEATURES,
     WEAVE_COLUMNS,
 )
+from clothscope.features.table import FIT_COLUMNS
 
-#: Column groups of a feature table.
-BRDF_COLUMNS = ("roughness", "specular_norm")
+#: Column groups of a feature table. The fitted BRDF's columns hold what the fit left unexplained beside
+#: roughness and specular (docs/design.md, "What the fit cannot explain").
+BRDF_COLUMNS = ("roughness", "specular_norm", *FIT_COLUMNS)
 #: Column groups the ``auto`` feature set chooses from, inside each LOOCV fold (ties go to the first), and whose
 #: QDAs the ``vote`` feature set averages.
 AUTO_GROUPS = ("structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf", "texture_shade_brdf")
@@ -52,8 +54,8 @@ def group_columns(group: str, table_columns: list[str] | pd.Index) -> list[str]:
     """The columns of one group present in a table.
 
     ``paper``: roughness, specular_norm, ``r_*``, ``z_*``, ``n_peaks`` and any
-    ``x_*`` extras; ``structure``: ``s_*`` and the weave rings ``w_*``; ``brdf``: roughness and
-    specular_norm; ``structure_brdf``: both; ``profile``: the radial
+    ``x_*`` extras; ``structure``: ``s_*`` and the weave rings ``w_*``; ``brdf``: roughness,
+    specular_norm and the fit's log unexplained share ``unexplained``; ``structure_brdf``: both; ``profile``: the radial
     profile ``s_prof_*``; ``profile_brdf``: it and the BRDF; ``lbp``: the LBP
     baseline; ``spectrum``: structure and the spectrum rings ``p_*``; ``texture``: structure and LBP;
     ``texture_brdf``: with the BRDF; ``shade``: ``a_*``,

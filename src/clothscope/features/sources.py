@@ -14,6 +14,7 @@ from clothscope.core.imageio import luminance as photo_luminance
 from clothscope.core.imageio import read_exr, read_png
 from clothscope.core.truth import decode_normal, truth_paths
 from clothscope.fit.outputs import HEIGHT_FILE, NORMAL_FILE, SHADE_FILE, STATE_FILE
+from clothscope.fit.target import SHARE_FLOOR
 from clothscope.prepare.image import IMAGE_FILE, STATUS_FILE
 from clothscope.prepare.shading import shading
 
@@ -62,6 +63,7 @@ class NormalInput:
     mitsuba_variant: str
     texels_per_pixel: float
     shade: np.ndarray | None = None  # fitted shade texture, when the fit has one
+    unexplained: float = 0.0  # the log share of the photo the fit left unexplained (fitted rows only)
 
 
 def unusable_input(status: str, reason: str, variant: str) -> NormalInput:
@@ -117,6 +119,20 @@ def lit_normals(normals: np.ndarray, light_position: Any) -> np.ndarray:
     return np.clip(np.asarray(normals, dtype=np.float64) @ (position / np.linalg.norm(position)), 0.0, None)
 
 
+def log_unexplained(state: dict[str, Any]) -> float:
+    """The natural log of a fit state's ``unexplained_share``, floored at :data:`~clothscope.fit.target.SHARE_FLOOR`.
+
+    Raises
+    ------
+    ValueError
+        When the state has no share (a fit of a version before it was recorded) or it is not finite.
+    """
+    if "unexplained_share" not in state:
+        raise ValueError("state.json has no unexplained_share (a fit of an older clothscope version); "
+                         "refit with --forcerun fit_normals")
+    return math.log(max(finite_number(state["unexplained_share"], "unexplained_share"), SHARE_FLOOR))
+
+
 def load_fitted(normals_dir: str | os.PathLike[str], field: str) -> NormalInput:
     """The fit_normals output of one image: ``state.json``, ``normal.exr``, ``height.exr`` and any ``shade.exr``.
 
@@ -144,7 +160,8 @@ def load_fitted(normals_dir: str | os.PathLike[str], field: str) -> NormalInput:
             raise ValueError(f"normal.exr, height.exr or {SHADE_FILE} holds non-finite values")
         described = height if field == "relief" else lit_normals(normals, state["scene"]["light"]["position"])
         return NormalInput(normals, described, finite_number(material["roughness"], "roughness"), finite_number(material["specular"], "specular"),
-                           STATUS_OK, "", variant, finite_number(state.get("texels_per_pixel", 1.0), "texels_per_pixel"), shade)
+                           STATUS_OK, "", variant, finite_number(state.get("texels_per_pixel", 1.0), "texels_per_pixel"), shade,
+                           log_unexplained(state))
     except (OSError, RuntimeError, ValueError, KeyError, TypeError) as err:
         return unusable_input("failed", f"{folder}: {type(err).__name__}: {err}", variant)
 

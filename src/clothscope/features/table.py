@@ -36,6 +36,10 @@ Columns (:func:`feature_schema`, an explicit pyarrow schema):
   factor, so the standardised classifier sees exactly the information in
   *s*); ``r_1..r_n``, ``z_1..z_n`` and ``n_peaks``
   (:func:`clothscope.features.paper.analyse_normal_map`);
+* ``unexplained`` (:data:`FIT_COLUMNS`), the natural log of the share of the photo's variance that the fit's
+  re-render leaves unexplained (``state.json``'s ``unexplained_share``,
+  :func:`clothscope.fit.target.unexplained_share`): what the fit model cannot render, such as holes over a
+  backdrop, sheer yarn or an anisotropic sheen; 0 on photo and truth rows (a constant column);
 * this project's thread-structure descriptor, ``s_*``
   (:data:`clothscope.features.structure.STRUCTURE_COLUMNS`), its weave rings ``w_*``
   (:data:`clothscope.features.structure.WEAVE_COLUMNS`), its spectrum rings ``p_*``
@@ -170,6 +174,10 @@ def config_hash(features_config: dict[str, Any], source: str) -> str:
     return hashlib.sha256(payload.encode("utf-8")).hexdigest()[:12]
 
 
+#: Columns of what the fit left unexplained (fitted rows; 0 elsewhere).
+FIT_COLUMNS = ("unexplained",)
+
+
 def paper_feature_columns(n_peaks: int) -> list[str]:
     """The paper's features: roughness, specular_norm, r_1..r_n, z_1..z_n, n_peaks."""
     return ["roughness", "specular_norm", *[f"r_{k}" for k in range(1, n_peaks + 1)],
@@ -177,9 +185,9 @@ def paper_feature_columns(n_peaks: int) -> list[str]:
 
 
 def feature_columns(n_peaks: int, extras: bool) -> list[str]:
-    """Every feature column of a table: the paper's, the structure descriptor's with its weave and spectrum rings, the LBP
-    baseline's, the shade's, the extras."""
-    return (paper_feature_columns(n_peaks) + list(STRUCTURE_COLUMNS) + list(WEAVE_COLUMNS) + list(SPECTRUM_COLUMNS)
+    """Every feature column of a table: the paper's, what the fit left unexplained, the structure descriptor's with its
+    weave and spectrum rings, the LBP baseline's, the shade's, the extras."""
+    return (paper_feature_columns(n_peaks) + list(FIT_COLUMNS) + list(STRUCTURE_COLUMNS) + list(WEAVE_COLUMNS) + list(SPECTRUM_COLUMNS)
             + list(LBP_COLUMNS) + list(SHADE_COLUMNS)
             + (list(EXTRA_COLUMNS) if extras else []))
 
@@ -214,7 +222,7 @@ def _row(image_id: str, fabric_class: str | None, settings: SpectrumSettings, ex
     for name in paper_feature_columns(settings.n_peaks)[2:]:
         value = features.get(name, 0.0)
         row[name] = int(round(value)) if name == "n_peaks" else finite_number(value, name)
-    for name in (*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *SPECTRUM_COLUMNS, *LBP_COLUMNS, *SHADE_COLUMNS):
+    for name in (*FIT_COLUMNS, *STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *SPECTRUM_COLUMNS, *LBP_COLUMNS, *SHADE_COLUMNS):
         row[name] = finite_number(structure.get(name, 0.0), name)
     if extras:
         for name in EXTRA_COLUMNS:
@@ -243,15 +251,16 @@ def surface_features(normals: np.ndarray, result: SpectrumResult, texels_per_pix
 
 def compute_row(image_id: str, fabric_class: str | None, normals: np.ndarray, field: np.ndarray, roughness: float,
                 specular: float, settings: SpectrumSettings, structure: StructureSettings, extras: bool,
-                shade: np.ndarray | None = None, period_px: float | None = None,
+                shade: np.ndarray | None = None, period_px: float | None = None, unexplained: float = 0.0,
                 **provenance: Any) -> tuple[dict[str, Any], SpectrumResult]:
     """:func:`feature_row` and the :class:`SpectrumResult` it came from (for the plot); ``period_px``: the field's
-    thread period measured elsewhere (:func:`clothscope.features.structure.structure_features`)."""
+    thread period measured elsewhere (:func:`clothscope.features.structure.structure_features`); ``unexplained``:
+    the fit's log unexplained share (:data:`FIT_COLUMNS`)."""
     result = analyse_normal_map(normals, settings)
     extra = {}
     if extras:
         extra = extra_features(result) | surface_features(np.asarray(normals), result, float(provenance.get("texels_per_pixel", 1.0)))
-    described = texture_columns(field, structure, period_px) | shade_features(shade, structure)
+    described = texture_columns(field, structure, period_px) | shade_features(shade, structure) | {"unexplained": unexplained}
     row = _row(image_id, fabric_class, settings, extras, provenance, roughness, specular, result.features, extra, described)
     return row, result
 
@@ -375,7 +384,8 @@ def features_job(image_id: str, fabric_class: str | None, source: str, image_pat
             period = None if source == "truth" else descriptor_period(  # a truth row's settings lack period_source
                 source, prepared_dir, loaded.texels_per_pixel, features_config["period_source"])
             row, result = compute_row(image_id, fabric_class, loaded.normals, loaded.field, loaded.roughness,
-                                      loaded.specular, settings, structure, extras, loaded.shade, period, **provenance)
+                                      loaded.specular, settings, structure, extras, loaded.shade, period,
+                                      loaded.unexplained, **provenance)
             tiles = tile_rows(image_id, loaded.field, structure, tile_settings(features_config["tiles"]),
                               period) if tiles_path else []
         except ValueError as err:

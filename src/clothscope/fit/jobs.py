@@ -45,7 +45,7 @@ from clothscope.fit.outputs import (
     write_comparison,
     write_loss_curve,
 )
-from clothscope.fit.target import SkipStage, Target, at_resolution, load_prepared, psnr
+from clothscope.fit.target import SkipStage, Target, at_resolution, load_prepared, psnr, unexplained_share
 
 PREVIEW_SPP = 35  # a 5 x 7 multijitter grid (asked for 32, the sampler drew 35)
 
@@ -79,9 +79,11 @@ def _render_fit(mi: Any, fit: FitScene, resolution: int, texture: np.ndarray | N
 def _write_common(tmp: Path, mi: Any, fit: FitScene, photo: Target, curve: list[dict[str, float]],
                   record: dict[str, Any], texture: np.ndarray | None, normal_file: str | None,
                   albedo: np.ndarray | None = None) -> dict[str, Any]:
-    """Outputs every stage writes: loss curve, side-by-side PNG, mesh, scene file and state."""
+    """Outputs every stage writes: loss curve, side-by-side PNG, mesh, scene file and state (with the preview's PSNR
+    and the share of the photo it leaves unexplained)."""
     rendered, scene = _render_fit(mi, fit, photo.resolution, texture, albedo)
     record["psnr_db"] = psnr(rendered, photo)
+    record["unexplained_share"] = unexplained_share(rendered, photo)
     write_loss_curve(tmp / LOSS_FILE, curve)
     write_comparison(tmp / COMPARISON_FILE, photo, rendered)
     scene.shapes()[0].write_ply(str(tmp / MESH_FILE))

@@ -71,6 +71,24 @@ def image_loss(mi: ModuleType, rendered: Any, target: Target) -> Any:
     return dr.sum((rendered - t) ** 2 * w, axis=None)
 
 
+#: The floor of :func:`unexplained_share`'s denominator: the variance of a photo that holds no contrast at all.
+SHARE_FLOOR = 1e-6
+
+
+def unexplained_share(rendered: np.ndarray, target: Target) -> float:
+    """The fit's residual energy over the photo's own variance about its mean, summed over RGB (linear).
+
+    Over unclipped pixels; 0 where the render equals the photo, about 1 where it explains no more than the
+    photo's mean colour. A brightness gain on photo and fit leaves it unchanged; a colour gain only reweighs
+    the channels.
+    """
+    w = target.weight[..., None] * np.ones(3)
+    photo = target.image.astype(np.float64)
+    mean = (photo * w).sum(axis=(0, 1)) / max(float(target.weight.sum()), 1.0)
+    spread = float(np.sum((photo - mean) ** 2 * w))
+    return float(np.sum((rendered.astype(np.float64) - photo) ** 2 * w) / max(spread, SHARE_FLOOR))
+
+
 def psnr(rendered: np.ndarray, target: Target) -> float:
     """PSNR (dB) of the sRGB-encoded images over unclipped pixels, capped at 99 dB."""
     a = linear_to_srgb(np.clip(rendered, 0.0, 1.0))
