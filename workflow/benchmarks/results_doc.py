@@ -191,6 +191,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1169", "holdout_1169", "holdout"),
         rendered_run("held-out 1171", "holdout_1171", "holdout"),
         rendered_run("held-out 1175", "holdout_1175", "holdout"),
+        rendered_run("held-out 1176", "holdout_1176", "holdout"),
         fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
@@ -203,6 +204,7 @@ def workflow_runs(results: Path) -> list[Run]:
         fitted_field_run("microscope-like weaves 1172, fitted", "microscope_1172", "run"),
         fitted_field_run("microscope-like weaves 1173, fitted", "microscope_1173", "run"),
         fitted_field_run("microscope-like weaves 1174, fitted", "microscope_1174", "run"),
+        fitted_field_run("microscope-like weaves 1177, fitted", "microscope_1177", "run"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -749,6 +751,16 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                                       ("1175", "holdout_1175", "held-out 1175"))
           for spoiled, option, spoiled_label in (("", "", ""), ("_spoiled", " --fitted-of-others 1",
                                                                   ", each image given another's fitted features"))),
+        BenchmarkReport("What the fit cannot explain, as a fitted column: screening on the design set",
+                        ("bench/fit_residual_screen.md",), f"{py}/fit_residual.py results --name fit_residual_screen"),
+        BenchmarkReport("What the fit cannot explain, as a fitted column: fresh held-out 1176 and microscope-like 1177",
+                        ("bench/fit_residual_fresh.md",),
+                        f"{py}/fit_residual.py results/holdout_1176/run results/microscope_1177/run "
+                        "--name fit_residual_fresh"),
+        BenchmarkReport("What the fit cannot explain, as a fitted column: the fresh sets, each image given another's "
+                        "fitted features", ("bench/fit_residual_spoiled_fresh.md",),
+                        f"{py}/fit_residual.py results/holdout_1176/run results/microscope_1177/run "
+                        "--fitted-of-others 1 --name fit_residual_spoiled_fresh"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
