@@ -546,7 +546,7 @@ def test_diagnosis_of_a_fit_that_equals_the_truth_finds_nothing_wrong(tmp_path):
         folder.mkdir()
         write_exr(folder / "normal.exr", truth.normals.astype(np.float32))
         write_exr(folder / "height.exr", np.repeat(truth.field[..., None], 3, axis=2).astype(np.float32))
-        (folder / "state.json").write_text(json.dumps({"status": "fitted", "texels_per_pixel": 1.0, "material": {
+        (folder / "state.json").write_text(json.dumps({"status": "fitted", "texels_per_pixel": 1.0, "unexplained_share": 0.0, "material": {
             "roughness": truth.roughness, "specular": truth.specular, "base_color": [0.5, 0.5, 0.5]}}))
         images[image_id] = {"fabric_class": "canvas", "path": str(path), "fit_dir": str(folder)}
     table = diagnosis_job(images, SETTINGS, tmp_path / "d.md", tmp_path / "d.csv", tmp_path / "d.png")

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from class_subsets import classify_config
-from harness import ROOT, publish, record_inputs, record_loocv, run_tables, shown
+from harness import ROOT, publish, run_tables, sets_and_record, shown, two_mode_markdown
 from record_candidates import fitted_of_others
 
 import clothscope.classify.feature_sets as feature_sets
@@ -66,18 +66,6 @@ def with_share(run: Path, fitted: pd.DataFrame) -> pd.DataFrame:
     return fitted.assign(unexplained=shares)
 
 
-def scored(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame], settings: dict) -> list[dict]:
-    """The feature-set report's fitted sets (held-out images scored with their tiles, as the rule does) and the
-    classifier of record on ``tables``."""
-    report = feature_sets.compare_feature_sets(tables, settings["reg"], settings["subspace"], tiles,
-                                               test_tiles=settings["test_tiles"] == "mean")
-    rows = [{"feature_set": r.feature_set, "correct": int(r.correct), "n": int(r.n)}
-            for r in report[report["status"] == "ok"].itertuples() if r.feature_set.endswith("fitted")]
-    ok, joined, candidates = record_inputs(tables, tiles, settings["feature_set"])
-    result = record_loocv(ok, candidates, joined, settings)
-    return rows + [{"feature_set": "classifier of record", "correct": result.correct, "n": result.n}]
-
-
 def run_rows(run: Path, spoil_seed: int | None) -> list[dict]:
     """The fitted sets and the record of one run, without the column and with it in the BRDF columns."""
     tables, tiles = run_tables(run)
@@ -85,25 +73,21 @@ def run_rows(run: Path, spoil_seed: int | None) -> list[dict]:
     if spoil_seed is not None:
         tables, tiles = fitted_of_others(tables, tiles, spoil_seed)
     settings = classify_config()
+    test_tiles = settings["test_tiles"] == "mean"  # as the feature_sets rule scores its sets
     base = tuple(c for c in feature_sets.BRDF_COLUMNS if c != "unexplained")
     label = shown(run) + ("" if spoil_seed is None else f" (fitted features of other images, seed {spoil_seed})")
     rows = []
     for mode, columns in zip(MODES, (base, (*base, "unexplained"))):
         with brdf_columns(columns):
-            rows += [{"run": label, "mode": mode, **row} for row in scored(tables, tiles, settings)]
+            rows += [{"run": label, "mode": mode, **row} for row in sets_and_record(
+                tables, tiles, settings, keep=lambda name: name.endswith("fitted"), test_tiles=test_tiles)]
     return rows
 
 
 def markdown(table: pd.DataFrame) -> str:
     """One line per run and feature set: images right without the column and with it."""
-    wide = table.pivot_table(index=["run", "feature_set"], columns="mode", values="correct", sort=False).reset_index()
-    n = table.groupby("run")["n"].max()
-    lines = ["LOOCV images right, the fitted sets and the classifier of record, without and with the log share of the "
-             "photo the fit leaves unexplained among the BRDF columns:", "",
-             f"| run | feature set | {MODES[0]} | {MODES[1]} |", "|---|---|---|---|"]
-    lines += [f"| `{r['run']}` | {r['feature_set']} | {int(r[MODES[0]])}/{n[r['run']]} | {int(r[MODES[1]])}/{n[r['run']]} |"
-              for _, r in wide.iterrows()]
-    return "\n".join(lines) + "\n"
+    return two_mode_markdown(table, MODES, "LOOCV images right, the fitted sets and the classifier of record, without "
+                             "and with the log share of the photo the fit leaves unexplained among the BRDF columns:")
 
 
 def main() -> None:

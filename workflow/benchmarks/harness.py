@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from clothscope.classify.feature_sets import classifier_candidates, joined_table, joined_tiles
+from clothscope.classify.feature_sets import classifier_candidates, compare_feature_sets, joined_table, joined_tiles
 from clothscope.classify.loocv import Choice, LoocvResult, loocv
 from clothscope.core.atomic import write_text
 from clothscope.core.config import FIT_STAGES
@@ -127,6 +127,28 @@ def change_lines(table: pd.DataFrame, before: str, after: str) -> list[str]:
     lines += ["", "Summed over the runs:", "", f"| feature set | {before} | {after} | change |", "|---|---|---|---|"]
     lines += [f"| {name} | {r[before]}/{r['n']} | {r[after]}/{r['n']} | {r[after] - r[before]:+d} |" for name, r in total.iterrows()]
     return lines
+
+
+def sets_and_record(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame], settings: dict,
+                    keep: Callable[[str], bool], test_tiles: bool = False) -> list[dict]:
+    """Images right of the feature-set report's sets whose name ``keep`` accepts, and of the classifier of record,
+    each fold also training on ``tiles`` (``test_tiles``: the report's held-out images scored with theirs too)."""
+    report = compare_feature_sets(tables, settings["reg"], settings["subspace"], tiles, test_tiles=test_tiles)
+    rows = [{"feature_set": r.feature_set, "correct": int(r.correct), "n": int(r.n)}
+            for r in report[report["status"] == "ok"].itertuples() if keep(r.feature_set)]
+    ok, joined, candidates = record_inputs(tables, tiles, settings["feature_set"])
+    result = record_loocv(ok, candidates, joined, settings)
+    return rows + [{"feature_set": "classifier of record", "correct": result.correct, "n": result.n}]
+
+
+def two_mode_markdown(table: pd.DataFrame, modes: tuple[str, str], heading: str) -> str:
+    """``heading``, then one line per run and feature set: images right in each of the two ``modes``."""
+    wide = table.pivot_table(index=["run", "feature_set"], columns="mode", values="correct", sort=False).reset_index()
+    n = table.groupby("run")["n"].max()
+    lines = [heading, "", f"| run | feature set | {modes[0]} | {modes[1]} |", "|---|---|---|---|"]
+    lines += [f"| `{r['run']}` | {r['feature_set']} | {int(r[modes[0]])}/{n[r['run']]} | {int(r[modes[1]])}/{n[r['run']]} |"
+              for _, r in wide.iterrows()]
+    return "\n".join(lines) + "\n"
 
 
 def runs_report(doc: str, name: str, runs_help: str, rows_of_run: Callable[..., list[dict]],

@@ -13,9 +13,8 @@ from pathlib import Path
 
 import pandas as pd
 from class_subsets import classify_config
-from harness import record_inputs, record_loocv, run_tables, runs_report, shown, validated_config
+from harness import run_tables, runs_report, sets_and_record, shown, two_mode_markdown, validated_config
 
-from clothscope.classify.feature_sets import compare_feature_sets
 from clothscope.features.sources import STATUS_OK, load_normal_input
 from clothscope.features.table import structure_settings, tile_rows, tile_settings
 
@@ -40,16 +39,6 @@ def source_tiles(run: Path, source: str, images: list[str], features: dict) -> p
     return pd.DataFrame(rows)
 
 
-def scored(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame], settings: dict) -> list[dict]:
-    """The feature-set report's sets and the classifier of record, each fold also training on ``tiles``."""
-    report = compare_feature_sets(tables, settings["reg"], settings["subspace"], tiles)
-    rows = [{"feature_set": r.feature_set, "correct": int(r.correct), "n": int(r.n)}
-            for r in report[report["status"] == "ok"].itertuples() if not r.feature_set.endswith("truth")]
-    ok, joined, candidates = record_inputs(tables, tiles, settings["feature_set"])
-    result = record_loocv(ok, candidates, joined, settings)
-    return rows + [{"feature_set": "classifier of record", "correct": result.correct, "n": result.n}]
-
-
 def run_rows(run: Path) -> list[dict]:
     """Every set of one run with the tiles alone and with the views too."""
     features, settings = validated_config()["features"], classify_config()
@@ -58,19 +47,15 @@ def run_rows(run: Path) -> list[dict]:
     with_views = {source: source_tiles(run, source, images, features) for source in tables}
     tiles_only = {source: rows[rows["tile"] < features["tiles"]["grid"] ** 2] for source, rows in with_views.items()}
     return [{"run": shown(run), "mode": mode, **row}
-            for mode, tiles in zip(MODES, (tiles_only, with_views)) for row in scored(tables, tiles, settings)]
+            for mode, tiles in zip(MODES, (tiles_only, with_views))
+            for row in sets_and_record(tables, tiles, settings, keep=lambda name: not name.endswith("truth"))]
 
 
 def markdown(table: pd.DataFrame) -> str:
     """One line per run and feature set: images right with the tiles alone, and with the views too."""
-    wide = table.pivot_table(index=["run", "feature_set"], columns="mode", values="correct", sort=False).reset_index()
-    n = table.groupby("run")["n"].max()
-    lines = [f"LOOCV images right, each fold training on its images' tiles, then also on views turned by "
-             f"{', '.join(f'{t:g}' for t in VIEWS['turns'])} degrees and zoomed by {', '.join(f'{z:g}' for z in VIEWS['zooms'])}:", "",
-             f"| run | feature set | {MODES[0]} | {MODES[1]} |", "|---|---|---|---|"]
-    lines += [f"| `{r['run']}` | {r['feature_set']} | {int(r[MODES[0]])}/{n[r['run']]} | {int(r[MODES[1]])}/{n[r['run']]} |"
-              for _, r in wide.iterrows()]
-    return "\n".join(lines) + "\n"
+    return two_mode_markdown(table, MODES, f"LOOCV images right, each fold training on its images' tiles, then also on "
+                             f"views turned by {', '.join(f'{t:g}' for t in VIEWS['turns'])} degrees and zoomed by "
+                             f"{', '.join(f'{z:g}' for z in VIEWS['zooms'])}:")
 
 
 def main() -> None:
