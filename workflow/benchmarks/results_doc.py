@@ -821,6 +821,9 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/class_subsets_record_canonical.md",),
                         f"{py}/class_subsets.py --holdout results/holdout_1171/run --record-only "
                         "--name class_subsets_record_canonical"),
+        BenchmarkReport("The paper's class subsets: the classifier of record with the fit's unexplained share",
+                        ("bench/class_subsets_record_unexplained.md",),
+                        f"{py}/class_subsets.py --design results --record-only --name class_subsets_record_unexplained"),
         BenchmarkReport("Invariance of predictions, refitted, LBP at the field's pixels (the default until the "
                         "twenty-third session)", ("bench/invariance_pixels/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --scores-only "
