@@ -761,6 +761,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "fitted features", ("bench/fit_residual_spoiled_fresh.md",),
                         f"{py}/fit_residual.py results/holdout_1176/run results/microscope_1177/run "
                         "--fitted-of-others 1 --name fit_residual_spoiled_fresh"),
+        BenchmarkReport("What the fit cannot explain, as a fitted column: held-out 1176 refitted with the share recorded",
+                        ("bench/fit_residual_native_1176.md",),
+                        f"{py}/fit_residual.py results/holdout_1176/run --name fit_residual_native_1176 (after "
+                        "`--forcerun fit_normals` on the run)"),
         BenchmarkReport("Tiles as extra training rows: every feature set on whole images and with tiles",
                         ("bench/tiles_gain.md",),
                         f"{py}/tiles_gain.py results results/confirm_1126/run results/weaves_confirm/run"),
