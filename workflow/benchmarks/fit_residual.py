@@ -3,8 +3,9 @@
     .venv/bin/python workflow/benchmarks/fit_residual.py RUN [RUN ...] [--name fit_residual] [--fitted-of-others SEED]
 
 For each run folder, every fitted image gets the column ``unexplained``: the log of its normal-map stage's
-residual energy over the photo's own variance (:func:`unexplained_share`), read from ``compare.png`` (the photo and
-the fit's preview, 8-bit sRGB, turned back to linear). The feature-set report's fitted sets and the classifier of
+residual energy over the photo's own variance (:func:`clothscope.fit.target.unexplained_share`), read from
+``compare.png`` (the photo and the fit's preview, 8-bit sRGB, turned back to linear) where the run's fits did not
+record it. The feature-set report's fitted sets and the classifier of
 record (as the ``classify`` rule runs them) are scored on the run's tables with the column in the BRDF columns and
 without it. ``--fitted-of-others SEED`` first gives each image another image's fitted features (and its column),
 the failure the record's pruning guards against. Writes ``results/bench/<name>.{csv,md}``. Nothing is chosen here
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -26,21 +28,19 @@ from record_candidates import fitted_of_others
 import clothscope.classify.feature_sets as feature_sets
 from clothscope.core.imageio import read_png, srgb_to_linear
 from clothscope.fit.outputs import COMPARISON_FILE
+from clothscope.fit.target import SHARE_FLOOR, Target, unexplained_share
 
 MODES = ("without", "with the column")
-#: The floor of the share before its log (a fit that explains the photo to the last bit).
-FLOOR = 1e-6
 GAP_PX = 4  # the white gap between the panels of compare.png
 
 
-def unexplained_share(compare: Path) -> float:
-    """Residual energy of the fit's preview over the photo's variance about its mean, summed over RGB (linear)."""
+def compare_share(compare: Path) -> float:
+    """:func:`clothscope.fit.target.unexplained_share` of the photo and preview panels of a ``compare.png``."""
     panels = read_png(compare)[..., :3].astype(np.float64)
     size = (panels.shape[1] - 2 * GAP_PX) // 3
     photo = srgb_to_linear(panels[:, :size])
     fit = srgb_to_linear(panels[:, size + GAP_PX:2 * size + GAP_PX])
-    spread = float(((photo - photo.mean(axis=(0, 1))) ** 2).sum())
-    return float(((fit - photo) ** 2).sum() / max(spread, FLOOR))
+    return unexplained_share(fit, Target(photo, np.ones(photo.shape[:2])))
 
 
 @contextlib.contextmanager
@@ -62,7 +62,7 @@ def with_share(run: Path, fitted: pd.DataFrame) -> pd.DataFrame:
     shares = []
     for image in fitted["image_id"].astype(str):
         compare = run / "fit" / image / "normals" / COMPARISON_FILE
-        shares.append(np.log(max(unexplained_share(compare), FLOOR)) if compare.is_file() else 0.0)
+        shares.append(math.log(max(compare_share(compare), SHARE_FLOOR)) if compare.is_file() else 0.0)
     return fitted.assign(unexplained=shares)
 
 

@@ -131,7 +131,7 @@ FEATURE_SETS = (
     FeatureSet("lbp_photo", "uniform LBP histograms (8/1, 16/2, 24/3) of the photo's luminance", (("photo", "lbp"),)),
     FeatureSet("fitted_plus_photo", "structure + BRDF from the fit, with the photo's structure descriptor",
                (("fitted", "structure_brdf"), ("photo", "structure"))),
-    FeatureSet("photo_plus_brdf", "the photo's structure descriptor with the fitted BRDF (roughness, specular)",
+    FeatureSet("photo_plus_brdf", "the photo's structure descriptor with the fitted BRDF (roughness, specular, unexplained share)",
                (("photo", "structure"), ("fitted", "brdf"))),
     FeatureSet("auto_fitted", "chosen inside each fold among structure+BRDF, profile+BRDF, paper, LBP, texture+BRDF and texture+shade+BRDF on fitted maps",
                (("fitted", "auto"),)),
