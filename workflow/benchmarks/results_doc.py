@@ -837,6 +837,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/invariance_fitted.py --images all --features-only --prefer photo_structure_brdf (the refits of the "
                         "run above reused; run with `--overlay config/overlays/canonical_lbp.yaml`, whose `lbp_scale: "
                         "canonical` is the default since and which was then removed)"),
+        BenchmarkReport("Invariance of predictions, refitted, with the fit's unexplained share, 2026-12-02",
+                        ("bench/invariance_1202/invariance_fitted.md",),
+                        f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --out results/bench/invariance_1202 "
+                        "(every transformed photo prepared and fitted from scratch, after a fresh clone's default run)"),
         BenchmarkReport("LBP at the canonical period under the pruned vote: five sets (the rule's parts b and c)",
                         ("bench/canonical_lbp_record.md",),
                         f"{py}/setting_gain.py results:results/canonical/design results/holdout_1169/run:"
@@ -891,6 +895,12 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Fit time per image, 2026-12-01 evening", ("bench/fit_speed_1201/fit_speed.md",),
                         f"{py}/fit_speed.py --variants default,fast --out results/bench/fit_speed_1201 (run alone, right "
                         "after the design run)"),
+        BenchmarkReport("Fit time per image, 2026-12-02", ("bench/fit_speed_1202/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants default,fast --out results/bench/fit_speed_1202 (run alone, after "
+                        "the invariance benchmark)"),
+        BenchmarkReport("The normal-map step on the same day: the machine's speed", ("bench/backward_pass_1202.md",),
+                        f"{py}/backward_pass.py --ways direct --name backward_pass_1202 (run alone, right after "
+                        "fit_speed_1202)"),
         BenchmarkReport("Fit time per image on field photos, prepare included, 2026-11-29 morning",
                         ("bench/fit_speed_field_1129/fit_speed.md",),
                         f"{py}/fit_speed.py --sheet results/weaves_1163/field/samples.tsv --prepare --variants default "
