@@ -895,12 +895,6 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Fit time per image, 2026-12-01 evening", ("bench/fit_speed_1201/fit_speed.md",),
                         f"{py}/fit_speed.py --variants default,fast --out results/bench/fit_speed_1201 (run alone, right "
                         "after the design run)"),
-        BenchmarkReport("Fit time per image, 2026-12-02", ("bench/fit_speed_1202/fit_speed.md",),
-                        f"{py}/fit_speed.py --variants default,fast --out results/bench/fit_speed_1202 (run alone, after "
-                        "the invariance benchmark)"),
-        BenchmarkReport("The normal-map step on the same day: the machine's speed", ("bench/backward_pass_1202.md",),
-                        f"{py}/backward_pass.py --ways direct --name backward_pass_1202 (run alone, right after "
-                        "fit_speed_1202)"),
         BenchmarkReport("Fit time per image on field photos, prepare included, 2026-11-29 morning",
                         ("bench/fit_speed_field_1129/fit_speed.md",),
                         f"{py}/fit_speed.py --sheet results/weaves_1163/field/samples.tsv --prepare --variants default "
