@@ -5,6 +5,7 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "workflow" / "benchmarks"))
 import class_subsets as cs  # noqa: E402
@@ -25,3 +26,13 @@ def test_the_report_gives_each_source_its_own_count_and_a_dash_where_unscored():
     text = cs.report(pd.DataFrame([row]), {"feature_set": "auto", "subspace": "discriminant", "reg": "auto"})
     assert "| held-out | 5 classes | 90.0% (27/30) | 74.4-96.5% | 20.0% | photo_structure 30 | 70.0% (21/30) | - | 80.0% (24/30) |" in text
     assert [s.name for s in cs.SOURCE_SETS] == ["auto_fitted", "auto_photo", "vote_fitted"]
+
+
+def test_a_run_without_its_feature_tables_stops_with_one_line_naming_the_missing_table(tmp_path):
+    (tmp_path / "features" / "fitted").mkdir(parents=True)
+    (tmp_path / "features" / "fitted" / "table.parquet").write_bytes(b"")
+    with pytest.raises(SystemExit) as stop:
+        cs.require_tables(tmp_path)
+    message = str(stop.value)
+    assert "\n" not in message and message.startswith(str(tmp_path / "features" / "photo" / "table.parquet"))
+    assert "no such feature table" in message

@@ -12,7 +12,7 @@ the images of those classes are scored three ways:
 No setting is chosen here; the design set's figures are still optimistic (the feature groups
 were designed on it), the held-out set's are not.
 
-    .venv/bin/python workflow/benchmarks/class_subsets.py [--design results] [--holdout results/holdout/run ...]
+    .venv/bin/python workflow/benchmarks/class_subsets.py [--design results] [--holdout [results/holdout/run ...]]
         [--record-only] [--name class_subsets]
 
 Writes ``results/bench/<name>.{csv,md}`` (``--record-only``: the classifier of record alone, in minutes). Needs each folder's
@@ -24,7 +24,7 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-from harness import ROOT, publish, record_inputs, record_loocv, run_tables, shown, validated_config
+from harness import ROOT, publish, record_inputs, record_loocv, require_tables, run_tables, shown, validated_config
 
 from clothscope.classify.feature_sets import FEATURE_SETS, compare_feature_sets
 from clothscope.classify.loocv import LoocvResult
@@ -111,14 +111,16 @@ def report(frame: pd.DataFrame, settings: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--design", type=Path, default=ROOT / "results")
-    parser.add_argument("--holdout", type=Path, nargs="+", default=[ROOT / "results" / "holdout" / "run"],
-                        help="held-out run folders, each scored and labelled by its path")
+    parser.add_argument("--holdout", type=Path, nargs="*", default=[ROOT / "results" / "holdout" / "run"],
+                        help="held-out run folders, each scored and labelled by its path (none: the design run alone)")
     parser.add_argument("--record-only", action="store_true",
                         help="score the classifier of record alone (the source sets' columns read '-')")
     parser.add_argument("--name", default="class_subsets", help="results/bench/<name>.{csv,md}")
     args = parser.parse_args()
     settings = classify_config()
     labelled = [("design", args.design)] + [(held_out_label(folder, args.holdout), folder) for folder in args.holdout]
+    for _, folder in labelled:  # every run's tables are there before minutes of scoring start
+        require_tables(folder)
     rows = [row for label, folder in labelled for row in scored_subsets(folder, label, settings, args.record_only)]
     frame = pd.DataFrame(rows)
     publish(ROOT / "results" / "bench", args.name, frame, report(frame, settings), float_format="%.6f")

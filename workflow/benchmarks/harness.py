@@ -59,8 +59,17 @@ def declared_resources() -> dict[str, dict[str, float | str]]:
     return declared
 
 
+def require_tables(run: Path, sources: tuple[str, ...] = ("fitted", "photo")) -> None:
+    """Exit with one line naming the first of ``run``'s feature tables (``features/<source>/table.parquet``) that is missing."""
+    for source in sources:
+        path = run / "features" / source / "table.parquet"
+        if not path.is_file():
+            raise SystemExit(f"{shown(path)}: no such feature table; run the workflow into {shown(run)} first")
+
+
 def run_tables(run: Path, sources: tuple[str, ...] = ("fitted", "photo")) -> tuple[dict[str, pd.DataFrame], dict[str, pd.DataFrame]]:
     """A run's feature tables by source, and its tile tables (``features/<source>/tiles/table.parquet``) where written."""
+    require_tables(run, sources)
     tables = {s: pd.read_parquet(run / "features" / s / "table.parquet") for s in sources}
     tiles = {s: pd.read_parquet(run / "features" / s / "tiles" / "table.parquet") for s in sources
              if (run / "features" / s / "tiles" / "table.parquet").is_file()}

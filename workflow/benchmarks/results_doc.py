@@ -828,6 +828,9 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The paper's class subsets: the classifier of record with the fit's unexplained share",
                         ("bench/class_subsets_record_unexplained.md",),
                         f"{py}/class_subsets.py --design results --record-only --name class_subsets_record_unexplained"),
+        BenchmarkReport("The paper's class subsets: the classifier of record, a fresh clone's default run, 2026-12-02",
+                        ("bench/class_subsets_record_1202.md",),
+                        f"{py}/class_subsets.py --design results --holdout --record-only --name class_subsets_record_1202"),
         BenchmarkReport("Invariance of predictions, refitted, LBP at the field's pixels (the default until the "
                         "twenty-third session)", ("bench/invariance_pixels/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --scores-only "
