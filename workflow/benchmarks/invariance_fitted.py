@@ -22,7 +22,12 @@ with the photo beside them), choose their columns on those other images as the
 Needs the main run's ``fitted`` and ``photo`` feature tables.
 
     .venv/bin/python workflow/benchmarks/invariance_fitted.py [--images a,b|all] [--out results/bench/invariance] [--features-only]
-        [--overlay config/overlays/NAME.yaml] [--prefer SET ...] [--scores-only]
+        [--overlay config/overlays/NAME.yaml] [--prefer SET ...] [--scores-only] [--transforms rotate30,zoom1.5,hue120|refit]
+
+``--transforms`` picks some of them, or ``refit``: the photo as it is, refitted. With
+``--overlay config/overlays/fit_seed_1.yaml`` (other render samples) that counts the
+predictions a refit alone changes: the benchmark's own noise, against which the
+transformations' counts are read.
 
 ``--features-only`` reuses the run folder's fits and recomputes only the
 feature rows (after a change to the features, not to the fit); ``--scores-only``
@@ -70,16 +75,21 @@ RECORD_SOURCES = "fitted_plus_photo"
 #: the classifier of record as configured (None: ``classify.feature_set``) and voting over its candidates
 RECORDS = {"record": None, "record_vote": "vote"}
 
+#: every transformation the benchmark can apply: the workflow's three, and the photo as it is (``refit``: with another
+#: ``fit.sample_seed`` it measures what a refit alone changes)
+TRANSFORMS = {**PHOTO_TRANSFORMS, "refit": lambda rgb: rgb}
+
 #: decode_image limits: the config schema's prepare defaults
 DECODE = tuple(schema_defaults()["prepare"][k] for k in ("min_input_px", "max_megapixels", "clip_threshold"))
 
 
-def transformed_sheet(sheet: pd.DataFrame, out: Path) -> pd.DataFrame:
-    """Write every transformed photo under ``out/photos`` and return their sample sheet."""
+def transformed_sheet(sheet: pd.DataFrame, out: Path, transforms: list[str]) -> pd.DataFrame:
+    """Write every photo of ``sheet`` under ``out/photos`` as each of ``transforms`` makes it; their sample sheet."""
     rows = []
     for _, row in sheet.iterrows():
         srgb = linear_to_srgb(decode_image(ROOT / row["path"], *DECODE).rgb)
-        for name, transform in PHOTO_TRANSFORMS.items():
+        for name in transforms:
+            transform = TRANSFORMS[name]
             path = out / "photos" / name / f"{row['image_id']}.png"
             path.parent.mkdir(parents=True, exist_ok=True)
             if not path.exists():  # the same photo again would look new to Snakemake and redo its fit
@@ -122,8 +132,8 @@ def view_predictions(others: pd.DataFrame, views: pd.DataFrame, candidates: dict
 
 def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], transformed: dict[str, pd.DataFrame],
                         images: list[str], settings: dict, tile_tables: dict[str, pd.DataFrame],
-                        transformed_tiles: dict[str, pd.DataFrame]) -> list[dict[str, object]]:
-    """One row per transformation: train on all other originals (and their tiles), once per original, predict the
+                        transformed_tiles: dict[str, pd.DataFrame], transforms: list[str]) -> list[dict[str, object]]:
+    """One row per transformation of ``transforms``: train on all other originals (and their tiles), once per original, predict the
     original and each of its transformed photos (each with its own tiles where ``classify.test_tiles`` is ``mean``);
     count changes."""
     spec = next(s for s in FEATURE_SETS if s.name == (RECORD_SOURCES if feature_set in RECORDS else feature_set))
@@ -134,22 +144,22 @@ def changed_predictions(feature_set: str, originals: dict[str, pd.DataFrame], tr
     if feature_set in RECORDS:
         columns = [c for c in frame.columns if c.split(".", 1)[0] in spec.sources]
     usable_now = set(common_images({s: transformed[s] for s in spec.sources}))
-    ok = {t: [i for i in images if f"{i}__{t}" in usable_now] for t in PHOTO_TRANSFORMS}
-    t_frame, _ = joined_features(spec, transformed, [f"{i}__{t}" for t in PHOTO_TRANSFORMS for i in ok[t]])
+    ok = {t: [i for i in images if f"{i}__{t}" in usable_now] for t in transforms}
+    t_frame, _ = joined_features(spec, transformed, [f"{i}__{t}" for t in transforms for i in ok[t]])
     candidates, prune = candidates_of(feature_set, columns, settings)
-    changed, wrong = dict.fromkeys(PHOTO_TRANSFORMS, 0), dict.fromkeys(PHOTO_TRANSFORMS, 0)
-    for original in dict.fromkeys(i for t in PHOTO_TRANSFORMS for i in ok[t]):
+    changed, wrong = dict.fromkeys(transforms, 0), dict.fromkeys(transforms, 0)
+    for original in dict.fromkeys(i for t in transforms for i in ok[t]):
         others = frame[frame["image_id"] != original]
-        transforms = [t for t in PHOTO_TRANSFORMS if original in ok[t]]
+        present = [t for t in transforms if original in ok[t]]
         views = pd.concat([frame[frame["image_id"] == original],
-                           *(t_frame[t_frame["image_id"] == f"{original}__{t}"] for t in transforms)], ignore_index=True)
+                           *(t_frame[t_frame["image_id"] == f"{original}__{t}"] for t in present)], ignore_index=True)
         before, *afters = view_predictions(others, views, candidates, prune, settings, tiles, scored_tiles)
-        for transform, after in zip(transforms, afters):
+        for transform, after in zip(present, afters):
             changed[transform] += int(before != after)
             wrong[transform] += int(after != views["fabric_class"].iloc[0])
     return [{"feature_set": feature_set, "transform": t, "n": len(ok[t]), "changed": changed[t],
              "change_rate": changed[t] / len(ok[t]) if ok[t] else 0.0, "wrong_after": wrong[t],
-             "not_usable": len(images) - len(ok[t])} for t in PHOTO_TRANSFORMS]
+             "not_usable": len(images) - len(ok[t])} for t in transforms]
 
 
 def main() -> int:
@@ -160,13 +170,18 @@ def main() -> int:
     parser.add_argument("--scores-only", action="store_true",
                         help="reuse the run's feature tables as they are (after a change to the classifier only)")
     parser.add_argument("--overlay", help="config overlay for the transformed photos' run (as the main run's)")
+    parser.add_argument("--transforms", default=",".join(PHOTO_TRANSFORMS),
+                        help=f"comma-separated, of {', '.join(TRANSFORMS)} (refit: the photo as it is)")
     parser.add_argument("--prefer", nargs="+", default=[], choices=PREFER_CHOICES,
                         help="also score the record with each of these classify.choice.prefer values")
     args = parser.parse_args()
+    transforms = args.transforms.split(",")
+    if unknown := sorted(set(transforms) - set(TRANSFORMS)):
+        parser.error(f"unknown transformation(s) {', '.join(unknown)}; choose from {', '.join(TRANSFORMS)}")
     settings = classify_config()
     out = (ROOT / args.out).resolve()
     sheet = pd.read_csv(write_sheet(args.images.split(","), out / "originals.tsv"), sep="\t", dtype=str, keep_default_na=False)
-    transformed_sheet(sheet, out).to_csv(out / "samples.tsv", sep="\t", index=False)
+    transformed_sheet(sheet, out, transforms).to_csv(out / "samples.tsv", sep="\t", index=False)
     run = out / "run"
     reuse = ["--rerun-triggers", "mtime", "--forcerun", "features"] if args.features_only else []
     overlay = ["--configfile", "config/config.yaml", args.overlay] if args.overlay else []
@@ -176,22 +191,23 @@ def main() -> int:
     transformed, transformed_tiles = run_tables(run)
     images = list(sheet["image_id"])
     rows = [row for f in SETS for row in changed_predictions(f, originals, transformed, images, settings, tiles,
-                                                               transformed_tiles)]
+                                                               transformed_tiles, transforms)]
     for prefer in args.prefer:
         preferring = {**settings, "feature_set": "auto", "choice": {**settings["choice"], "prefer": prefer}}
         rows += [{**row, "feature_set": f"record auto, prefer {prefer}"}
-                 for row in changed_predictions("record", originals, transformed, images, preferring, tiles, transformed_tiles)]
+                 for row in changed_predictions("record", originals, transformed, images, preferring, tiles, transformed_tiles,
+                                                   transforms)]
     table = pd.DataFrame(rows)
     how_run = ("earlier (its feature tables reused as they are, `--scores-only`" if args.scores_only
                else f"in {seconds / 60:.1f} min (2 cores{', fits reused' if args.features_only else ''}")
     lines = ["# Invariance of predictions to the photo's rotation, zoom and colour (refitted)", "",
-             f"{len(images)} images x {len(PHOTO_TRANSFORMS)} transformations, prepared, fitted and described by the "
+             f"{len(images)} images x {len(transforms)} transformations ({', '.join(transforms)}), prepared, fitted and described by the "
              f"workflow {how_run}{f', overlay `{args.overlay}`' if args.overlay else ''}). "
              f"Classifier: QDA, subspace `{settings['subspace']}`, shrinkage `{settings['reg']}`; `record` is "
              f"`{settings['feature_set']}` on fitted maps with the photo beside them ({record_how(settings)}); "
              "`record_vote` is every set voting. Changed: the model trained on every other original image "
              "predicts another class for the transformed photo than for the original. rotate30 keeps the valid centre, "
-             "which the prepare stage resizes, so it also magnifies by 1.41.", "",
+             "which the prepare stage resizes, so it also magnifies by 1.41; refit is the photo as it is, refitted.", "",
              "| feature set | transform | changed | rate | wrong after |", "|---|---|---|---|---|"]
     lines += [f"| {r.feature_set} | {r.transform} | {r.changed}/{r.n} | {100 * r.change_rate:.1f}% | {r.wrong_after} |"
               for r in table.itertuples()]
