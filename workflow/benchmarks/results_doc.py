@@ -192,6 +192,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1171", "holdout_1171", "holdout"),
         rendered_run("held-out 1175", "holdout_1175", "holdout"),
         rendered_run("held-out 1176", "holdout_1176", "holdout"),
+        rendered_run("held-out 1178", "holdout_1178", "holdout"),
         fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
@@ -831,6 +832,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The paper's class subsets: the classifier of record, a fresh clone's default run, 2026-12-02",
                         ("bench/class_subsets_record_1202.md",),
                         f"{py}/class_subsets.py --design results --holdout --record-only --name class_subsets_record_1202"),
+        BenchmarkReport("The paper's class subsets: the classifier of record, a fresh clone's default run and held-out 1178, "
+                        "2026-12-03", ("bench/class_subsets_record_1203.md",),
+                        f"{py}/class_subsets.py --design results --holdout results/holdout_1178/run --record-only "
+                        "--name class_subsets_record_1203"),
         BenchmarkReport("Invariance of predictions, refitted, LBP at the field's pixels (the default until the "
                         "twenty-third session)", ("bench/invariance_pixels/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --scores-only "
@@ -844,6 +849,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/invariance_1202/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --out results/bench/invariance_1202 "
                         "(every transformed photo prepared and fitted from scratch, after a fresh clone's default run)"),
+        BenchmarkReport("The invariance benchmark's own noise: every photo refitted as it is, with other render samples",
+                        ("bench/invariance_noise_1203/invariance_fitted.md",),
+                        f"{py}/invariance_fitted.py --images all --transforms refit --overlay config/overlays/fit_seed_1.yaml "
+                        "--out results/bench/invariance_noise_1203 (after a fresh clone's default run)"),
         BenchmarkReport("LBP at the canonical period under the pruned vote: five sets (the rule's parts b and c)",
                         ("bench/canonical_lbp_record.md",),
                         f"{py}/setting_gain.py results:results/canonical/design results/holdout_1169/run:"
@@ -898,6 +907,13 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Fit time per image, 2026-12-01 evening", ("bench/fit_speed_1201/fit_speed.md",),
                         f"{py}/fit_speed.py --variants default,fast --out results/bench/fit_speed_1201 (run alone, right "
                         "after the design run)"),
+        BenchmarkReport("Fit time per image, 2026-12-03 morning", ("bench/fit_speed_1203/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants default,fast --out results/bench/fit_speed_1203 (run alone, right "
+                        "after a fresh clone's default run)"),
+        BenchmarkReport("The normal-map step on the same morning, 2026-12-03: the machine's speed",
+                        ("bench/backward_pass_1203.md",),
+                        f"{py}/backward_pass.py --ways direct --name backward_pass_1203 (run alone, right after "
+                        "fit_speed_1203)"),
         BenchmarkReport("Fit time per image on field photos, prepare included, 2026-11-29 morning",
                         ("bench/fit_speed_field_1129/fit_speed.md",),
                         f"{py}/fit_speed.py --sheet results/weaves_1163/field/samples.tsv --prepare --variants default "
