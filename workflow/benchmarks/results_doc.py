@@ -944,6 +944,8 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "--name backward_pass_cuda_noaccel"),
         BenchmarkReport("A rerun from scratch against the run", ("bench/rerun_identity.md",), f"{py}/rerun_identity.py"),
         BenchmarkReport("Scaling with cores and resolution", ("bench/scaling/scaling.md",), f"{py}/scaling.py"),
+        BenchmarkReport("Scaling with cores and resolution, 2026-12-03", ("bench/scaling_1203/scaling.md",),
+                        f"{py}/scaling.py --out results/bench/scaling_1203 (run alone)"),
         BenchmarkReport("The `paper` preset's projected time", ("reports/paper_projection.md",), f"{py}/paper_projection.py"),
         BenchmarkReport("Lower bounds on the fold normal error", ("reports/fold_bounds.md",), f"{py}/fold_bounds.py"),
     ]
