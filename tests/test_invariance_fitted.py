@@ -7,12 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 from PIL import Image
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "workflow" / "benchmarks"))
 import invariance_fitted as inv  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = inv.ROOT
 
 
 def test_refit_writes_the_photo_pixel_for_pixel_and_a_zoom_does_not(tmp_path, monkeypatch):
@@ -32,10 +33,7 @@ def test_refit_writes_the_photo_pixel_for_pixel_and_a_zoom_does_not(tmp_path, mo
 
 def test_an_unknown_transformation_stops_with_one_line(capsys, monkeypatch):
     monkeypatch.setattr(sys, "argv", ["invariance_fitted.py", "--transforms", "refit,mirror"])
-    try:
+    with pytest.raises(SystemExit) as stop:
         inv.main()
-    except SystemExit as stop:
-        assert stop.code == 2
-    else:
-        raise AssertionError("an unknown transformation was accepted")
+    assert stop.value.code == 2
     assert "unknown transformation(s) mirror" in capsys.readouterr().err

@@ -89,11 +89,10 @@ def transformed_sheet(sheet: pd.DataFrame, out: Path, transforms: list[str]) -> 
     for _, row in sheet.iterrows():
         srgb = linear_to_srgb(decode_image(ROOT / row["path"], *DECODE).rgb)
         for name in transforms:
-            transform = TRANSFORMS[name]
             path = out / "photos" / name / f"{row['image_id']}.png"
             path.parent.mkdir(parents=True, exist_ok=True)
             if not path.exists():  # the same photo again would look new to Snakemake and redo its fit
-                write_png(path, transform(srgb))
+                write_png(path, TRANSFORMS[name](srgb))
             rows.append({**row.to_dict(), "image_id": f"{row['image_id']}__{name}", "path": str(path.relative_to(ROOT)),
                          "source": f"{name} of {row['image_id']}"})
     return pd.DataFrame(rows, columns=sheet.columns)
