@@ -8,7 +8,14 @@ from pathlib import Path
 import pytest
 import yaml
 
-from clothscope.physics.materials import PhysicsEntry, arcsim_material_json, load_physics_table, physics_for
+from clothscope.physics.materials import (
+    PhysicsEntry,
+    arcsim_material_json,
+    load_physics_table,
+    physics_for,
+    physics_table_from,
+    physics_table_record,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 PHYSICS_YAML = ROOT / "config" / "physics.yaml"
@@ -129,3 +136,18 @@ def test_unreadable_table_names_file(tmp_path):
     bad.write_text("classes: [1, 2\n")
     with pytest.raises(ValueError, match="bad.yaml"):
         load_physics_table(bad)
+
+
+def test_a_table_record_reads_back_to_the_same_entries_as_json():
+    """A model keeps the table as JSON (physics_table_record); reading it back loses nothing but the file name."""
+    from dataclasses import replace
+
+    table = load_physics_table(PHYSICS_YAML)
+    record = json.loads(json.dumps(physics_table_record(table), allow_nan=False))
+    again = physics_table_from(record, "model.json")
+    assert {name: replace(e, config_path="") for name, e in again.items()} == \
+        {name: replace(e, config_path="") for name, e in table.items()}
+    assert {e.config_path for e in again.values()} == {"model.json"}
+    record["classes"]["canvas"]["density"] = "heavy"
+    with pytest.raises(ValueError, match=r"model.json: class 'canvas': density: must be a number"):
+        physics_table_from(record, "model.json")

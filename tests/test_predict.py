@@ -16,7 +16,8 @@ from clothscope.core.config import schema_defaults
 from clothscope.core.schema import apply_preset, load_schema, validate
 from clothscope.features.structure import StructureSettings
 from clothscope.features.table import features_job
-from clothscope.predict import model_sources, scored_with_tiles, training_settings, unique_ids
+from clothscope.physics.materials import load_physics_table, physics_table_record
+from clothscope.predict import model_physics_table, model_sources, scored_with_tiles, training_settings, unique_ids
 from clothscope.prepare.image import PrepareSettings, prepare_image
 
 CLASSES = ("canvas", "satin", "velvet")
@@ -46,8 +47,9 @@ def photo_model(tmp_path_factory):
     table = joined_table({"photo": pd.DataFrame(rows)})
     columns = classifier_candidates("lbp", "photo", table.columns)["lbp"]
     folder = work / "model"
+    physics = physics_table_record(load_physics_table(ROOT / "config" / "physics.yaml"))
     save_model(train_model(table, columns, "auto", "discriminant"), folder,
-               {"normal_source": "photo", "settings": settings, "physics_table": str(ROOT / "config" / "physics.yaml")})
+               {"normal_source": "photo", "settings": settings, "physics_table": "config/physics.yaml", "physics": physics})
     return folder
 
 
@@ -80,6 +82,29 @@ def test_predict_without_a_model_says_how_to_make_one(tmp_path, capsys):
     assert main(["predict", str(HELD_OUT), "--model", str(tmp_path / "none"), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("clothscope: error: ") and "classify rule" in err and len(err.splitlines()) == 1
+
+
+def test_a_model_copied_elsewhere_classifies_from_any_directory_with_its_own_physics_table(photo_model, tmp_path,
+                                                                                          monkeypatch, capsys):
+    """The record keeps a copy of the physics table, so the path it was trained with ("config/physics.yaml",
+    relative to the clone) need not exist where ``predict`` runs."""
+    import shutil
+
+    moved = tmp_path / "elsewhere" / "model"
+    shutil.copytree(photo_model, moved)
+    monkeypatch.chdir(tmp_path)
+    assert main(["predict", str(HELD_OUT), "--model", str(moved), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    physics_path = capsys.readouterr().out.strip().split("\t")[3]
+    assert json.loads(open(physics_path).read())["physics"]["parameters"]["bending"]
+
+
+def test_an_old_record_whose_physics_table_is_not_found_says_to_pass_one(photo_model, tmp_path, monkeypatch):
+    model = load_model(photo_model)
+    del model.metadata["metadata"]["physics"]
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ValueError, match=r"model.json: names the physics table config/physics.yaml, .*pass --physics"):
+        model_physics_table(model, photo_model)
+    assert set(model_physics_table(model, photo_model, str(ROOT / "config" / "physics.yaml"))) >= {"canvas"}
 
 
 def test_model_sources_puts_the_models_own_source_first(photo_model):

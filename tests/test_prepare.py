@@ -146,6 +146,23 @@ def test_mostly_clipped_image_is_rejected(tmp_path):
     assert record["status"] == "rejected" and "clipped" in record["reason"]
 
 
+def test_a_frame_without_thread_scale_texture_is_rejected_and_fine_pile_is_not(tmp_path):
+    """Black, uniform and smoothly shaded frames hold nothing to fit or classify; velvet's fine pile does."""
+    from conftest import SYNTHETIC
+
+    settings = config_settings("prepare", scale="frame")
+    ramp = np.tile(np.linspace(20, 230, 512), (512, 1)).astype(np.uint8)
+    frames = {"black": np.zeros((300, 300, 3), np.uint8), "grey": np.full((300, 300, 3), 128, np.uint8),
+              "ramp": np.stack([ramp] * 3, axis=-1)}
+    for name, pixels in frames.items():
+        Image.fromarray(pixels).save(tmp_path / f"{name}.png")
+        record = prepare_image(name, tmp_path / f"{name}.png", tmp_path / "out" / name, settings)
+        assert record["status"] == "rejected" and record["reason"].startswith(f"{tmp_path / name}.png: no thread-scale texture")
+        assert "prepare.min_detail" in record["reason"] and "\n" not in record["reason"]
+    velvet = prepare_image("velvet", SYNTHETIC / "velvet" / "velvet_green.png", tmp_path / "out" / "velvet", settings)
+    assert velvet["status"] == "accepted" and velvet["thread_detail"] > 2 * settings.min_detail
+
+
 def test_outputs_are_atomic(tmp_path):
     with pytest.raises(RuntimeError):
         with atomic_dir(tmp_path / "job") as tmp:

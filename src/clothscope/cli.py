@@ -58,11 +58,10 @@ def cmd_predict(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from clothscope.classify.model import load_model
-    from clothscope.physics.materials import load_physics_table
-    from clothscope.predict import STAGES, Prediction, model_sources, predict_photo, unique_ids
+    from clothscope.predict import STAGES, Prediction, model_physics_table, model_sources, predict_photo, unique_ids
 
     model = load_model(args.model)
-    physics = load_physics_table(args.physics or model.metadata.get("metadata", {}).get("physics_table") or "config/physics.yaml")
+    physics = model_physics_table(model, args.model, args.physics)
     out = Path(args.out)
     log_path = out / "predict.log"
     out.mkdir(parents=True, exist_ok=True)

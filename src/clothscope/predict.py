@@ -10,6 +10,7 @@ training images' were.
 from __future__ import annotations
 
 import logging
+import os
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -19,7 +20,7 @@ from typing import Any
 import pandas as pd
 
 from clothscope.classify.feature_sets import joined_table, joined_tiles
-from clothscope.classify.model import VotingModel, predict
+from clothscope.classify.model import RECORD_NAME, VotingModel, predict
 from clothscope.classify.rows import posterior_column
 from clothscope.core.atomic import write_json
 from clothscope.core.config import schema_defaults
@@ -31,7 +32,7 @@ from clothscope.fit import jobs
 from clothscope.fit.geometry import GeometrySettings
 from clothscope.fit.material import MaterialSettings
 from clothscope.fit.normals import NormalSettings
-from clothscope.physics.materials import PhysicsEntry, physics_for
+from clothscope.physics.materials import PhysicsEntry, load_physics_table, physics_for, physics_table_from
 from clothscope.prepare.image import PrepareSettings, prepare_image
 
 #: Stages of one photo, in order (the progress bar counts them).
@@ -59,6 +60,28 @@ def model_sources(model: VotingModel) -> list[str]:
 
 #: What models recorded before a key existed were processed with, where it differs from the schema default.
 LEGACY = {"prepare": {"scale": "frame"}, "fit": {"normals": {"colour_model": "one_colour"}}, "features": {"fitted_field": "relief", "period_source": "field"}}
+
+
+def model_physics_table(model: VotingModel, folder: str | os.PathLike[str], override: str | None = None) -> dict[str, PhysicsEntry]:
+    """The class -> ArcSim table of a prediction: ``override`` (a YAML path), else the copy in the model's record.
+
+    A record made before models kept a copy names only the YAML it was trained with; that path is read as it is.
+
+    Raises
+    ------
+    ValueError
+        One line naming the table, or saying to pass ``--physics`` when an old record's path is not found.
+    """
+    if override:
+        return load_physics_table(override)
+    metadata = model.metadata.get("metadata", {})
+    if "physics" in metadata:
+        return physics_table_from(metadata["physics"], f"{Path(folder) / RECORD_NAME} (its copy of {metadata.get('physics_table', 'the physics table')})")
+    recorded = metadata.get("physics_table") or "config/physics.yaml"
+    if not Path(recorded).is_file():
+        raise ValueError(f"{Path(folder) / RECORD_NAME}: names the physics table {recorded}, which does not exist from here; "
+                         "pass --physics YAML (models trained since 2026-12-03 keep a copy)")
+    return load_physics_table(recorded)
 
 
 def scored_with_tiles(model: VotingModel) -> bool:

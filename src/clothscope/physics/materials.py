@@ -70,7 +70,7 @@ def _text(value: Any, where: str) -> str:
     return value.strip()
 
 
-def _entry(fabric_class: str, raw: Any, path: Path) -> PhysicsEntry:
+def _entry(fabric_class: str, raw: Any, path: str) -> PhysicsEntry:
     where = f"{path}: class {fabric_class!r}"
     if not isinstance(raw, dict):
         raise ValueError(f"{where}: entry must be a mapping, got {type(raw).__name__}")
@@ -131,15 +131,39 @@ def load_physics_table(path: str | os.PathLike[str]) -> dict[str, PhysicsEntry]:
         raise ValueError(f"{path}: physics table does not exist") from None
     except (yaml.YAMLError, UnicodeDecodeError) as err:
         raise ValueError(f"{path}: not readable YAML: {str(err).splitlines()[0]}") from None
+    return physics_table_from(raw, str(path))
+
+
+def physics_table_from(raw: Any, where: str) -> dict[str, PhysicsEntry]:
+    """Validate a physics table already read (the YAML's mapping, or :func:`physics_table_record`'s).
+
+    ``where`` names it in every message (a file, or a model record). Raises
+    ``ValueError`` as :func:`load_physics_table` does.
+    """
     if not isinstance(raw, dict) or "classes" not in raw:
-        raise ValueError(f"{path}: expected a mapping with a 'classes:' key")
+        raise ValueError(f"{where}: expected a mapping with a 'classes:' key")
     unknown = sorted(set(raw) - {"classes"})
     if unknown:
-        raise ValueError(f"{path}: unknown top-level key(s) {', '.join(map(str, unknown))}")
+        raise ValueError(f"{where}: unknown top-level key(s) {', '.join(map(str, unknown))}")
     classes = raw["classes"] or {}
     if not isinstance(classes, dict):
-        raise ValueError(f"{path}: 'classes' must be a mapping of fabric class to entry")
-    return {str(name): _entry(str(name), entry, path) for name, entry in classes.items()}
+        raise ValueError(f"{where}: 'classes' must be a mapping of fabric class to entry")
+    return {str(name): _entry(str(name), entry, where) for name, entry in classes.items()}
+
+
+def physics_table_record(table: dict[str, PhysicsEntry]) -> dict[str, Any]:
+    """The table as JSON-ready data that :func:`physics_table_from` reads back to the same entries.
+
+    A trained model keeps it in its record, so ``clothscope predict`` needs no
+    path to the YAML it came from.
+    """
+    def source(entry: PhysicsEntry) -> dict[str, str]:
+        return {"file": entry.source_file, "citation": entry.citation} | ({"fabric": entry.fabric} if entry.fabric else {})
+
+    return {"classes": {name: {"density": entry.density, "stretching": [list(row) for row in entry.stretching],
+                               "bending": [list(row) for row in entry.bending], "source": source(entry),
+                               "rationale": entry.rationale}
+                        for name, entry in table.items()}}
 
 
 def arcsim_material_json(entry: PhysicsEntry) -> dict[str, Any]:

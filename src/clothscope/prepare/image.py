@@ -86,6 +86,7 @@ class PrepareSettings:
     period_window: int  # side of the native-resolution centre square the period is measured on
     period_field: str  # what the period is measured on: "shading" (yarn colours divided out) or "luminance"
     period_peak: str  # which lattice peak gives the period, one of PERIOD_PEAKS
+    min_detail: float  # least thread-scale detail (grey levels of 255, thread_detail) of an accepted image
 
     def __post_init__(self) -> None:  # the schema checks every range; it cannot say low < high
         low, high = self.period_band
@@ -366,6 +367,33 @@ def to_working_resolution(rgb: np.ndarray, clipped: np.ndarray, size: int, crop:
     return np.clip(out, 0.0, None), mask
 
 
+#: Width (working pixels) of the Gaussian whose residual is the thread-scale detail of :func:`thread_detail`.
+DETAIL_SIGMA_PX = 4.0
+
+
+def thread_detail(rgb: np.ndarray) -> float:
+    """RMS of the working image's sRGB luminance less its Gaussian blur of :data:`DETAIL_SIGMA_PX`, in grey levels of 255.
+
+    Measured inside a tenth of the side from each edge. Detail finer than a few
+    pixels is what the fit and the descriptors read; a black, uniform or smoothly
+    shaded frame (nothing in focus, or no cloth) has almost none.
+    """
+    grey = linear_to_srgb(rgb) @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+    detail = grey.astype(np.float64) - ndimage.gaussian_filter(grey.astype(np.float64), DETAIL_SIGMA_PX, mode="reflect")
+    edge = int(0.1 * min(detail.shape))
+    inner = detail[edge : detail.shape[0] - edge, edge : detail.shape[1] - edge]
+    return float(np.sqrt(np.mean(inner**2)) * 255.0)
+
+
+def check_detail(path: str | os.PathLike[str], rgb: np.ndarray, min_detail: float) -> float:
+    """The image's :func:`thread_detail`; raises :class:`ImageRejected` when it is below ``min_detail``."""
+    detail = thread_detail(rgb)
+    if detail < min_detail:
+        raise ImageRejected(f"{path}: no thread-scale texture (detail {detail:.2f} of 255 grey levels, limit {min_detail:g}, "
+                            "prepare.min_detail): out of focus, too dark or uniform")
+    return detail
+
+
 def prepare_image(image_id: str, path: str | os.PathLike[str], out_dir: str | os.PathLike[str], settings: PrepareSettings,
                   lattice: StructureSettings | None = None) -> dict[str, Any]:
     """Prepare one image into ``out_dir`` (written atomically) and return its status record.
@@ -388,6 +416,7 @@ def prepare_image(image_id: str, path: str | os.PathLike[str], out_dir: str | os
                     f"{path}: {fraction:.0%} of the image is clipped (limit {settings.max_clipped_fraction:.0%}); "
                     "expose it darker"
                 )
+            detail = check_detail(path, rgb, settings.min_detail)
             write_exr(tmp / IMAGE_FILE, rgb)
             write_png(tmp / CLIPPED_FILE, clipped.astype(np.float32))
             write_png(tmp / PREVIEW_FILE, linear_to_srgb(rgb))
@@ -398,6 +427,7 @@ def prepare_image(image_id: str, path: str | os.PathLike[str], out_dir: str | os
                 bit_depth=decoded.bit_depth,
                 source_size=[int(decoded.rgb.shape[1]), int(decoded.rgb.shape[0])],
                 clipped_fraction=fraction,
+                thread_detail=detail,
                 scale=scale,
                 mean_linear_rgb=[float(v) for v in rgb.reshape(-1, 3).mean(axis=0)],
                 notes=decoded.notes,
