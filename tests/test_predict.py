@@ -16,7 +16,8 @@ from clothscope.core.config import schema_defaults
 from clothscope.core.schema import apply_preset, load_schema, validate
 from clothscope.features.structure import StructureSettings
 from clothscope.features.table import features_job
-from clothscope.physics.materials import load_physics_table, physics_table_record
+from clothscope.classify.outputs import MODEL_PHYSICS_FILE
+from clothscope.physics.job import physics_job
 from clothscope.predict import model_physics_table, model_sources, scored_with_tiles, training_settings, unique_ids
 from clothscope.prepare.image import PrepareSettings, prepare_image
 
@@ -47,9 +48,10 @@ def photo_model(tmp_path_factory):
     table = joined_table({"photo": pd.DataFrame(rows)})
     columns = classifier_candidates("lbp", "photo", table.columns)["lbp"]
     folder = work / "model"
-    physics = physics_table_record(load_physics_table(ROOT / "config" / "physics.yaml"))
     save_model(train_model(table, columns, "auto", "discriminant"), folder,
-               {"normal_source": "photo", "settings": settings, "physics_table": "config/physics.yaml", "physics": physics})
+               {"normal_source": "photo", "settings": settings, "physics_table": "config/physics.yaml"})
+    (work / "records.json").write_text("[]")  # the physics rule keeps the table beside the model
+    physics_job(work / "records.json", ROOT / "config" / "physics.yaml", {}, table_copy=folder / MODEL_PHYSICS_FILE)
     return folder
 
 
@@ -98,13 +100,20 @@ def test_a_model_copied_elsewhere_classifies_from_any_directory_with_its_own_phy
     assert json.loads(open(physics_path).read())["physics"]["parameters"]["bending"]
 
 
-def test_an_old_record_whose_physics_table_is_not_found_says_to_pass_one(photo_model, tmp_path, monkeypatch):
-    model = load_model(photo_model)
-    del model.metadata["metadata"]["physics"]
+def test_a_model_folder_without_its_physics_table_says_to_pass_one(photo_model, tmp_path, monkeypatch):
+    import shutil
+
+    old = tmp_path / "old"
+    shutil.copytree(photo_model, old)
+    (old / MODEL_PHYSICS_FILE).unlink()
+    model = load_model(old)
     monkeypatch.chdir(tmp_path)
-    with pytest.raises(ValueError, match=r"model.json: names the physics table config/physics.yaml, .*pass --physics"):
-        model_physics_table(model, photo_model)
-    assert set(model_physics_table(model, photo_model, str(ROOT / "config" / "physics.yaml"))) >= {"canvas"}
+    with pytest.raises(ValueError, match=r"physics.json: does not exist, .*\(config/physics.yaml\) .*pass --physics"):
+        model_physics_table(model, old)
+    assert set(model_physics_table(model, old, str(ROOT / "config" / "physics.yaml"))) >= {"canvas"}
+    (old / MODEL_PHYSICS_FILE).write_text('{"classes": {"canvas": {"density": 0.2}}}')
+    with pytest.raises(ValueError, match=r"physics.json: class 'canvas': missing field"):
+        model_physics_table(model, old)
 
 
 def test_model_sources_puts_the_models_own_source_first(photo_model):

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -42,7 +41,6 @@ from clothscope.features.structure import (
     with_period,
 )
 
-PHYSICS_YAML = Path(__file__).resolve().parents[1] / "config" / "physics.yaml"
 SETTINGS = StructureSettings(border=0.1, peak_threshold=10.0, fundamental_fraction=0.3, lbp_scale="pixels")
 
 
@@ -445,7 +443,6 @@ def test_the_record_can_vote_and_its_model_for_new_photos_holds_every_set_that_v
     from clothscope.classify.feature_sets import joined_table
     from clothscope.classify.job import classify_job
     from clothscope.classify.model import load_model, predict
-    from clothscope.physics.materials import load_physics_table
 
     rng = np.random.default_rng(4)
     paths = {}
@@ -454,14 +451,13 @@ def test_the_record_can_vote_and_its_model_for_new_photos_holds_every_set_that_v
         table.loc[table["image_id"] == "c5", "fabric_class"] = ""  # a query
         paths[source] = tmp_path / f"{source}.parquet"
         table.to_parquet(paths[source])
-    out = classify_job(paths["fitted"], PHYSICS_YAML, "fitted", "auto", tmp_path / "reports", tmp_path / "model",
+    out = classify_job(paths["fitted"], "config/physics.yaml", "fitted", "auto", tmp_path / "reports", tmp_path / "model",
                        feature_set="vote", photo_table_path=paths["photo"], subspace="discriminant")
     assert out["n"] == 17 and out["accuracy"] > 0.9
     model = load_model(tmp_path / "model")
     assert len(model.members) > 3 and {"structure_brdf", "photo_profile"} <= set(model.members)
     assert model.metadata["metadata"]["feature_set"] == "vote" and model.metadata["metadata"]["choice"] is None
     assert model.metadata["metadata"]["prune"] == 0.0
-    assert set(model.metadata["metadata"]["physics"]["classes"]) == set(load_physics_table(PHYSICS_YAML))  # predict's copy
     summary = (tmp_path / "reports" / "summary.md").read_text()
     assert "Sets that voted, folds: " in summary and f"averages the posteriors of {len(model.members)} QDAs: `structure_brdf`" in summary
     joined = joined_table({s: pd.read_parquet(p) for s, p in paths.items()})
@@ -484,7 +480,7 @@ def test_a_pruned_record_leaves_out_fitted_sets_that_carry_no_class(tmp_path):
         table = _table(source, rng, informative).assign(normal_source=source, mitsuba_variant="llvm_ad_rgb", config_hash="h")
         paths[source] = tmp_path / f"{source}.parquet"
         table.to_parquet(paths[source])
-    out = classify_job(paths["fitted"], PHYSICS_YAML, "fitted", "auto", tmp_path / "reports", tmp_path / "model",
+    out = classify_job(paths["fitted"], "config/physics.yaml", "fitted", "auto", tmp_path / "reports", tmp_path / "model",
                        feature_set="vote", photo_table_path=paths["photo"], subspace="discriminant", prune=0.05)
     model = load_model(tmp_path / "model")
     fitted_only = {"structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf"}

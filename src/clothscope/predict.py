@@ -9,6 +9,7 @@ training images' were.
 """
 from __future__ import annotations
 
+import json
 import logging
 import os
 import re
@@ -20,7 +21,8 @@ from typing import Any
 import pandas as pd
 
 from clothscope.classify.feature_sets import joined_table, joined_tiles
-from clothscope.classify.model import RECORD_NAME, VotingModel, predict
+from clothscope.classify.model import VotingModel, predict
+from clothscope.classify.outputs import MODEL_PHYSICS_FILE
 from clothscope.classify.rows import posterior_column
 from clothscope.core.atomic import write_json
 from clothscope.core.config import schema_defaults
@@ -63,24 +65,29 @@ LEGACY = {"prepare": {"scale": "frame"}, "fit": {"normals": {"colour_model": "on
 
 
 def model_physics_table(model: VotingModel, folder: str | os.PathLike[str], override: str | None = None) -> dict[str, PhysicsEntry]:
-    """The class -> ArcSim table of a prediction: ``override`` (a YAML path), else the copy in the model's record.
+    """The class -> ArcSim table of a prediction: ``override`` (a YAML path), else the copy beside the model.
 
-    A record made before models kept a copy names only the YAML it was trained with; that path is read as it is.
+    The ``physics`` rule keeps that copy in the model's folder (:data:`MODEL_PHYSICS_FILE`). A folder without one
+    (made before the copy existed) is read from the YAML path its record names.
 
     Raises
     ------
     ValueError
-        One line naming the table, or saying to pass ``--physics`` when an old record's path is not found.
+        One line naming the table, or saying to pass ``--physics`` when neither the copy nor the path is found.
     """
     if override:
         return load_physics_table(override)
-    metadata = model.metadata.get("metadata", {})
-    if "physics" in metadata:
-        return physics_table_from(metadata["physics"], f"{Path(folder) / RECORD_NAME} (its copy of {metadata.get('physics_table', 'the physics table')})")
-    recorded = metadata.get("physics_table") or "config/physics.yaml"
+    copy = Path(folder) / MODEL_PHYSICS_FILE
+    if copy.is_file():
+        try:
+            raw = json.loads(copy.read_text(encoding="utf-8"))
+        except (json.JSONDecodeError, UnicodeDecodeError) as err:
+            raise ValueError(f"{copy}: not readable JSON: {err}") from None
+        return physics_table_from({key: value for key, value in raw.items() if key != "from"} if isinstance(raw, dict) else raw, str(copy))
+    recorded = model.metadata.get("metadata", {}).get("physics_table") or "config/physics.yaml"
     if not Path(recorded).is_file():
-        raise ValueError(f"{Path(folder) / RECORD_NAME}: names the physics table {recorded}, which does not exist from here; "
-                         "pass --physics YAML (models trained since 2026-12-03 keep a copy)")
+        raise ValueError(f"{copy}: does not exist, and the physics table the model names ({recorded}) is not found from "
+                         "here; pass --physics YAML, or rerun the workflow's physics rule")
     return load_physics_table(recorded)
 
 

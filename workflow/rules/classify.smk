@@ -17,7 +17,6 @@ rule classify:
         photo_tiles=lambda wildcards: (
             [] if wildcards.source == "photo" else tile_table("photo")
         ),
-        physics=config["classify"]["physics"],
     output:
         reports=[classify_report(name) for name in REPORT_FILES],
         model_arrays=os.path.join(RESULTS, "models", "{source}", "model.npz"),
@@ -34,6 +33,7 @@ rule classify:
     params:
         reg=config["classify"]["reg"],
         subspace=config["classify"]["subspace"],
+        physics=config["classify"]["physics"],
         feature_set=config["classify"]["feature_set"],
         choice=config["classify"]["choice"],
         prune=config["classify"]["prune"],

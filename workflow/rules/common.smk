@@ -2,7 +2,12 @@
 import os
 import sys
 
-from clothscope.classify.outputs import IN_SNAKEMAKE_REPORT, RECORDS_FILE, REPORT_FILES
+from clothscope.classify.outputs import (
+    IN_SNAKEMAKE_REPORT,
+    MODEL_PHYSICS_FILE,
+    RECORDS_FILE,
+    REPORT_FILES,
+)
 from clothscope.core.config import (
     SCHEMA_PATH,
     check_sample_counts,
@@ -247,7 +252,7 @@ def feature_set_comparison(wildcards):
 def physics_outputs(source):
     return [
         os.path.join(RESULTS, "physics", source, f"{image}.json") for image in IMAGE_IDS
-    ]
+    ] + [os.path.join(RESULTS, "models", source, MODEL_PHYSICS_FILE)]
 
 
 def paper_table_outputs(source):

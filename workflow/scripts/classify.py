@@ -12,7 +12,7 @@ if snakemake.input.get("photo_tiles"):
 with job_log(snakemake.log[0], "classify") as log:
     classify_job(
         snakemake.input.table,
-        snakemake.input.physics,
+        snakemake.params.physics,
         snakemake.wildcards.source,
         snakemake.params.reg,
         os.path.dirname(snakemake.output.reports[0]),

@@ -6,6 +6,7 @@ with job_log(snakemake.log[0], "physics") as log:
     physics_job(
         snakemake.input.records,
         snakemake.input.physics,
-        dict(zip(snakemake.params.images, snakemake.output)),
+        dict(zip(snakemake.params.images, snakemake.output.images)),
         log,
+        table_copy=snakemake.output.table,
     )

@@ -45,7 +45,6 @@ from clothscope.core.atomic import write_json, write_text
 from clothscope.features.plots import plot_placeholder
 from clothscope.features.sources import STATUS_OK
 from clothscope.features.table import read_table
-from clothscope.physics.materials import load_physics_table, physics_table_record
 
 
 def _posteriors(row: pd.Series) -> dict[str, float]:
@@ -98,8 +97,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     table_path
         The feature table (Parquet).
     physics_path
-        ``config/physics.yaml``; the model keeps its path and a copy of its entries, so that
-        ``clothscope predict`` needs neither the file nor this working directory.
+        ``config/physics.yaml``, recorded in the model for ``clothscope predict``.
     source
         ``truth`` or ``fitted`` (for titles and records).
     reg
@@ -136,7 +134,6 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         With ``vote``: the sign test level at which the sets the best one beats plainly are left out
         (``classify.prune``; 0: every set votes).
     """
-    physics = load_physics_table(physics_path)  # checked before any scoring; the model keeps a copy
     tables = {source: read_table(table_path)}
     if photo_table_path and source != "photo":
         tables["photo"] = read_table(photo_table_path)
@@ -186,7 +183,6 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
                                                 "feature_table": str(table_path), **provenance,
                                                 "n_labelled": int(len(labelled)), "settings": dict(settings or {}),
                                                 "physics_table": str(physics_path),
-                                                "physics": physics_table_record(physics),
                                                 "loocv_accuracy": float(result.accuracy) if result is not None else None})
     else:
         save_untrained(model_dir, "; ".join(problems), {"normal_source": source, **provenance})

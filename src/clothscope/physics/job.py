@@ -13,11 +13,11 @@ from pathlib import Path
 from typing import Any
 
 from clothscope.core.atomic import write_json
-from clothscope.physics.materials import load_physics_table, physics_for
+from clothscope.physics.materials import load_physics_table, physics_for, physics_table_record
 
 
 def physics_job(records_path: str | os.PathLike[str], physics_path: str | os.PathLike[str],
-                physics_paths: dict[str, str], log: Any = None) -> int:
+                physics_paths: dict[str, str], log: Any = None, table_copy: str | os.PathLike[str] | None = None) -> int:
     """Write every image's physics JSON; returns how many got parameters.
 
     Parameters
@@ -28,6 +28,9 @@ def physics_job(records_path: str | os.PathLike[str], physics_path: str | os.Pat
         ``config/physics.yaml``.
     physics_paths
         Image id to the JSON to write; the records and these ids must name the same images.
+    table_copy
+        Where to keep the table as JSON beside the model (:data:`clothscope.classify.outputs.MODEL_PHYSICS_FILE`),
+        for ``clothscope predict``; None: nowhere.
 
     Raises
     ------
@@ -48,6 +51,8 @@ def physics_job(records_path: str | os.PathLike[str], physics_path: str | os.Pat
         physics = physics_for(record["posteriors"], table) if record["posteriors"] else None
         with_parameters += physics is not None
         write_json(physics_paths[str(record["image_id"])], {**record, "physics": physics})
+    if table_copy is not None:
+        write_json(table_copy, physics_table_record(table) | {"from": str(physics_path)})
     if log is not None:
         log.info("physics for %d of %d images", with_parameters, len(records))
     return with_parameters
