@@ -64,7 +64,8 @@ def model_sources(model: VotingModel) -> list[str]:
 LEGACY = {"prepare": {"scale": "frame"}, "fit": {"normals": {"colour_model": "one_colour"}}, "features": {"fitted_field": "relief", "period_source": "field"}}
 
 
-def model_physics_table(model: VotingModel, folder: str | os.PathLike[str], override: str | None = None) -> dict[str, PhysicsEntry]:
+def model_physics_table(model: VotingModel, folder: str | os.PathLike[str],
+                        override: str | None = None) -> dict[str, PhysicsEntry]:
     """The class -> ArcSim table of a prediction: ``override`` (a YAML path), else the copy beside the model.
 
     The ``physics`` rule keeps that copy in the model's folder (:data:`MODEL_PHYSICS_FILE`). A folder without one
@@ -83,7 +84,9 @@ def model_physics_table(model: VotingModel, folder: str | os.PathLike[str], over
             raw = json.loads(copy.read_text(encoding="utf-8"))
         except (json.JSONDecodeError, UnicodeDecodeError) as err:
             raise ValueError(f"{copy}: not readable JSON: {err}") from None
-        return physics_table_from({key: value for key, value in raw.items() if key != "from"} if isinstance(raw, dict) else raw, str(copy))
+        if isinstance(raw, dict):
+            raw.pop("from", None)  # where the physics rule read it
+        return physics_table_from(raw, str(copy))
     recorded = model.metadata.get("metadata", {}).get("physics_table") or "config/physics.yaml"
     if not Path(recorded).is_file():
         raise ValueError(f"{copy}: does not exist, and the physics table the model names ({recorded}) is not found from "

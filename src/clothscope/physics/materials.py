@@ -154,8 +154,8 @@ def physics_table_from(raw: Any, where: str) -> dict[str, PhysicsEntry]:
 def physics_table_record(table: dict[str, PhysicsEntry]) -> dict[str, Any]:
     """The table as JSON-ready data that :func:`physics_table_from` reads back to the same entries.
 
-    A trained model keeps it in its record, so ``clothscope predict`` needs no
-    path to the YAML it came from.
+    The ``physics`` rule keeps it beside a trained model, so ``clothscope
+    predict`` needs no path to the YAML it came from.
     """
     def source(entry: PhysicsEntry) -> dict[str, str]:
         return {"file": entry.source_file, "citation": entry.citation} | ({"fabric": entry.fabric} if entry.fabric else {})
