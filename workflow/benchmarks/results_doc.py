@@ -921,6 +921,14 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The normal-map step on the same morning: the machine's speed", ("bench/backward_pass_s17.md",),
                         f"{py}/backward_pass.py --ways direct --name backward_pass_s17 (run alone, right after "
                         "fit_speed_1129)"),
+        BenchmarkReport("Fit time per image on field photos, prepare included, 2026-12-03",
+                        ("bench/fit_speed_field_1203/fit_speed.md",),
+                        f"{py}/fit_speed.py --sheet results/weaves_1163/field/samples.tsv --prepare --variants default "
+                        f"--rounds 1 --images {FIELD_TIMED} --out results/bench/fit_speed_field_1203 (run alone)"),
+        BenchmarkReport("The normal-map step right after it, 2026-12-03: the machine's speed",
+                        ("bench/backward_pass_1203b.md",),
+                        f"{py}/backward_pass.py --ways direct --name backward_pass_1203b (run alone, right after "
+                        "fit_speed_field_1203)"),
         BenchmarkReport("Run-to-run noise and the lean fit", ("bench/run_figures/run_figures.md",),
                         f"{py}/run_figures.py results results/exp_seed/design results/exp_lean/design results/holdout/run "
                         "results/exp_lean/holdout results/holdout_confirm/run results/exp_seed/confirm results/exp_lean/confirm "
