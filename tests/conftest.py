@@ -66,10 +66,17 @@ def gradient_rgb(height: int = 96, width: int = 128) -> np.ndarray:
     return np.stack([x * 255 // max(width - 1, 1), y * 255 // max(height - 1, 1), np.full_like(x, 90)], -1).astype(np.uint8)
 
 
+def woven_rgb(height: int = 96, width: int = 128) -> np.ndarray:
+    """:func:`gradient_rgb` with a 3 px checker of +-24 grey levels on it: thread-scale texture that prepare accepts."""
+    y, x = np.mgrid[0:height, 0:width]
+    checker = np.where((y // 3 + x // 3) % 2 == 0, 24, -24)[..., None]
+    return np.clip(gradient_rgb(height, width).astype(int) + checker, 0, 255).astype(np.uint8)
+
+
 def broken_and_valid_files(folder: Path) -> dict[str, tuple[Path, bool]]:
     """The acceptance folder: broken files (False) and unusual but valid ones (True)."""
     folder.mkdir(parents=True, exist_ok=True)
-    rgb = gradient_rgb()
+    rgb = woven_rgb()
     files: dict[str, tuple[Path, bool]] = {}
 
     def add(name: str, valid: bool) -> Path:
