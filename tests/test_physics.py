@@ -138,16 +138,19 @@ def test_unreadable_table_names_file(tmp_path):
         load_physics_table(bad)
 
 
-def test_a_table_record_reads_back_to_the_same_entries_as_json():
-    """A model keeps the table as JSON (physics_table_record); reading it back loses nothing but the file name."""
+def test_a_table_record_reads_back_to_the_same_entries_as_json(tmp_path):
+    """A model folder keeps the table as JSON (physics_table_record, with where it came from); reading it back, also
+    as a ``--physics`` file, loses nothing but the file name."""
     from dataclasses import replace
 
     table = load_physics_table(PHYSICS_YAML)
-    record = json.loads(json.dumps(physics_table_record(table), allow_nan=False))
-    again = physics_table_from(record, "model.json")
+    copy = tmp_path / "physics.json"
+    copy.write_text(json.dumps(physics_table_record(table) | {"from": str(PHYSICS_YAML)}, allow_nan=False))
+    again = load_physics_table(copy)
     assert {name: replace(e, config_path="") for name, e in again.items()} == \
         {name: replace(e, config_path="") for name, e in table.items()}
-    assert {e.config_path for e in again.values()} == {"model.json"}
+    assert {e.config_path for e in again.values()} == {str(copy)}
+    record = json.loads(copy.read_text())
     record["classes"]["canvas"]["density"] = "heavy"
-    with pytest.raises(ValueError, match=r"model.json: class 'canvas': density: must be a number"):
-        physics_table_from(record, "model.json")
+    with pytest.raises(ValueError, match=r"physics.json: class 'canvas': density: must be a number"):
+        physics_table_from(record, "physics.json")

@@ -88,7 +88,7 @@ def test_predict_without_a_model_says_how_to_make_one(tmp_path, capsys):
 
 def test_a_model_copied_elsewhere_classifies_from_any_directory_with_its_own_physics_table(photo_model, tmp_path,
                                                                                           monkeypatch, capsys):
-    """The record keeps a copy of the physics table, so the path it was trained with ("config/physics.yaml",
+    """The model folder keeps a copy of the physics table (physics.json), so the path it was trained with ("config/physics.yaml",
     relative to the clone) need not exist where ``predict`` runs."""
     import shutil
 

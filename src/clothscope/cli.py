@@ -104,7 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="folder with model.json and model.npz, written by the workflow's classify rule "
                            "(default: results/models/fitted; make it with: snakemake --cores 2)")
     pred.add_argument("--out", default="predictions", help="receives one folder per photo (default: predictions)")
-    pred.add_argument("--physics", help="fabric class -> ArcSim table (default: the one the model was trained with)")
+    pred.add_argument("--physics", help="fabric class -> ArcSim table (default: physics.json in the model folder, else the path its record names)")
     pred.add_argument("--threads", type=int, default=None, help="Dr.Jit threads of the fit (default: all cores)")
     pred.add_argument("--render", action="store_true",
                       help="fit every photo, also when the model reads only the photo: the BRDF, normal map and scene for a renderer")

@@ -84,8 +84,6 @@ def model_physics_table(model: VotingModel, folder: str | os.PathLike[str],
             raw = json.loads(copy.read_text(encoding="utf-8"))
         except (json.JSONDecodeError, UnicodeDecodeError) as err:
             raise ValueError(f"{copy}: not readable JSON: {err}") from None
-        if isinstance(raw, dict):
-            raw.pop("from", None)  # where the physics rule read it
         return physics_table_from(raw, str(copy))
     recorded = model.metadata.get("metadata", {}).get("physics_table") or "config/physics.yaml"
     if not Path(recorded).is_file():

@@ -137,12 +137,13 @@ def load_physics_table(path: str | os.PathLike[str]) -> dict[str, PhysicsEntry]:
 def physics_table_from(raw: Any, where: str) -> dict[str, PhysicsEntry]:
     """Validate a physics table already read (the YAML's mapping, or :func:`physics_table_record`'s).
 
-    ``where`` names it in every message (a file, or a model record). Raises
+    An optional top-level ``from`` (the file a model folder's copy was read
+    from) is ignored. ``where`` names it in every message (a file, or a model record). Raises
     ``ValueError`` as :func:`load_physics_table` does.
     """
     if not isinstance(raw, dict) or "classes" not in raw:
         raise ValueError(f"{where}: expected a mapping with a 'classes:' key")
-    unknown = sorted(set(raw) - {"classes"})
+    unknown = sorted(set(raw) - {"classes", "from"})  # "from": where the physics rule read a model folder's copy
     if unknown:
         raise ValueError(f"{where}: unknown top-level key(s) {', '.join(map(str, unknown))}")
     classes = raw["classes"] or {}

@@ -367,7 +367,7 @@ def to_working_resolution(rgb: np.ndarray, clipped: np.ndarray, size: int, crop:
     return np.clip(out, 0.0, None), mask
 
 
-#: Width (working pixels) of the Gaussian whose residual is the thread-scale detail of :func:`thread_detail`.
+#: Standard deviation (working pixels) of the Gaussian whose residual is the thread-scale detail of :func:`thread_detail`.
 DETAIL_SIGMA_PX = 4.0
 
 
