@@ -9,7 +9,6 @@ training images' were.
 """
 from __future__ import annotations
 
-import json
 import logging
 import os
 import re
@@ -34,7 +33,7 @@ from clothscope.fit import jobs
 from clothscope.fit.geometry import GeometrySettings
 from clothscope.fit.material import MaterialSettings
 from clothscope.fit.normals import NormalSettings
-from clothscope.physics.materials import PhysicsEntry, load_physics_table, physics_for, physics_table_from
+from clothscope.physics.materials import PhysicsEntry, load_physics_table, physics_for
 from clothscope.prepare.image import PrepareSettings, prepare_image
 
 #: Stages of one photo, in order (the progress bar counts them).
@@ -80,11 +79,7 @@ def model_physics_table(model: VotingModel, folder: str | os.PathLike[str],
         return load_physics_table(override)
     copy = Path(folder) / MODEL_PHYSICS_FILE
     if copy.is_file():
-        try:
-            raw = json.loads(copy.read_text(encoding="utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as err:
-            raise ValueError(f"{copy}: not readable JSON: {err}") from None
-        return physics_table_from(raw, str(copy))
+        return load_physics_table(copy)  # JSON is YAML; the reader ignores the copy's "from"
     recorded = model.metadata.get("metadata", {}).get("physics_table") or "config/physics.yaml"
     if not Path(recorded).is_file():
         raise ValueError(f"{copy}: does not exist, and the physics table the model names ({recorded}) is not found from "
