@@ -167,6 +167,36 @@ def test_truth_and_fitted_loaders(tmp_path):
     assert skipped.status == "skipped" and skipped.reason == "prepare: rejected"
 
 
+def prepared_status(folder, status="accepted", source=256, crop=128, size=64):
+    """A prepared folder holding only the status record that puts maps in its working frame."""
+    folder.mkdir(parents=True, exist_ok=True)
+    record = {"status": status, "source_size": [source, source], "scale": {"crop_px": crop},
+              "settings": {"working_resolution": size}}
+    (folder / "status.json").write_text(json.dumps(record))
+    return folder
+
+
+def test_truth_is_put_in_the_frame_of_the_working_photo(tmp_path):
+    photo = tmp_path / "satin_red.png"
+    for path in [SYNTHETIC / "satin" / "satin_red.png", *truth_paths(SYNTHETIC / "satin" / "satin_red.png").values()]:
+        if path.is_file():
+            shutil.copy(path, tmp_path / path.name)
+    native = load_truth(photo)
+    framed = load_truth(photo, prepared_status(tmp_path / "prepared"))
+    assert framed.status == "ok" and framed.normals.shape == (64, 64, 3) and framed.field.shape == (64, 64)
+    assert np.allclose(np.linalg.norm(framed.normals, axis=-1), 1.0, atol=1e-5)
+    centre = native.field[64:192, 64:192]  # the centred 128 px, box-averaged 2 x 2
+    assert np.allclose(framed.field, centre.reshape(64, 2, 64, 2).mean(axis=(1, 3)), atol=1e-5)
+    assert framed.roughness == native.roughness
+    # an uncropped photo at its own size, a rejected photo and a missing status keep the native maps
+    for folder in (prepared_status(tmp_path / "same", crop=256, size=256), prepared_status(tmp_path / "rejected", "rejected"),
+                   tmp_path / "absent"):
+        kept = load_truth(photo, folder)
+        assert np.array_equal(kept.normals, native.normals) and np.array_equal(kept.field, native.field)
+    wrong = load_truth(photo, prepared_status(tmp_path / "other", source=512))
+    assert wrong.status == "failed" and "does not match its 512x512 px photo" in wrong.reason
+
+
 @pytest.mark.parametrize("position", [[0.0, 0.0, 0.0], [0.0, float("nan"), 1.0], [1.0, 2.0]])
 def test_lit_normals_rejects_a_light_without_a_direction(position):
     with pytest.raises(ValueError, match="light position must be three finite numbers"):

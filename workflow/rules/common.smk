@@ -138,7 +138,8 @@ def fit_normals_dir(image):
 
 
 def normal_source_inputs(source, image):
-    """Files one image's features come from: its fit_normals folder and prepared photo, its prepared photo, or its image and ground truth."""
+    """Files one image's features come from: its fit_normals folder and prepared photo, its prepared photo, or its
+    image, ground truth and prepared photo (whose crop and scale the true maps are put in)."""
     if source == "fitted":
         return {
             "normals": fit_normals_dir(image),
@@ -150,6 +151,7 @@ def normal_source_inputs(source, image):
     truth = truth_paths(Path(path))
     return {
         "image": path,
+        "prepared": os.path.join(RESULTS, "prepared", image),
         **{
             key: str(truth[key])
             for key in ("normal", "height", "json")
@@ -176,9 +178,13 @@ def all_normal_inputs(wildcards):
 
 
 def image_sources():
-    """Image id to its sheet path and fit_normals folder (params of the table rules)."""
+    """Image id to its sheet path, fit_normals folder and prepared folder (params of the table rules)."""
     return {
-        image: {"path": SAMPLES.loc[image, "path"], "fit_dir": fit_normals_dir(image)}
+        image: {
+            "path": SAMPLES.loc[image, "path"],
+            "fit_dir": fit_normals_dir(image),
+            "prepared_dir": os.path.join(RESULTS, "prepared", image),
+        }
         for image in IMAGE_IDS
     }
 
@@ -296,6 +302,7 @@ def diagnosis_images():
             "fabric_class": SAMPLES.loc[i, "fabric_class"],
             "path": SAMPLES.loc[i, "path"],
             "fit_dir": fit_normals_dir(i),
+            "prepared_dir": os.path.join(RESULTS, "prepared", i),
         }
         for i in images_with_truth()
     }

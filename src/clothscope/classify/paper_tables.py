@@ -287,7 +287,8 @@ def timed(function, *args, **kwargs) -> tuple[Any, float]:
 def load_maps(table_path: str | os.PathLike[str], source: str, images: dict[str, dict[str, str]]) -> list[LabelledMap]:
     """Normal maps of the feature table's usable labelled rows, reloaded from their normal source.
 
-    ``images`` maps an image id to its sheet ``path`` and ``fit_dir`` (the fit_normals folder).
+    ``images`` maps an image id to its sheet ``path``, ``fit_dir`` (the fit_normals folder) and ``prepared_dir``
+    (the prepared folder: the photo source's maps, and the frame the true maps are put in).
     """
 
     table = read_table(table_path)
@@ -296,7 +297,8 @@ def load_maps(table_path: str | os.PathLike[str], source: str, images: dict[str,
     for image_id in wanted["image_id"].astype(str):
         entry = images[image_id]
         # Algorithm 2 reads the normals (the photo's luminance) only, so the descriptors' fields do not matter here
-        loaded[image_id] = load_normal_input(source, entry["path"], entry.get("fit_dir"), "relief", "luminance")
+        folder = entry.get("fit_dir") if source == "fitted" else entry.get("prepared_dir")
+        loaded[image_id] = load_normal_input(source, entry["path"], folder, "relief", "luminance")
     return usable_maps(table, loaded)
 
 

@@ -33,9 +33,13 @@ def _describe(field: np.ndarray, settings: StructureSettings) -> dict[str, Any]:
     return {**diag, **features}
 
 
-def compare_image(image_id: str, fabric_class: str, image_path: str, fit_dir: str, settings: StructureSettings) -> dict[str, Any] | None:
-    """One image's true and fitted structure (with and without the border dropped); None when either is unusable."""
-    truth, fitted = load_truth(image_path), load_fitted(fit_dir, "relief")  # relief against the true relief
+def compare_image(image_id: str, fabric_class: str, image_path: str, fit_dir: str, settings: StructureSettings,
+                  prepared_dir: str | None = None) -> dict[str, Any] | None:
+    """One image's true and fitted structure (with and without the border dropped); None when either is unusable.
+
+    ``prepared_dir``: the prepared photo, whose crop and scale the true relief is put in (the fit's frame).
+    """
+    truth, fitted = load_truth(image_path, prepared_dir), load_fitted(fit_dir, "relief")  # relief against the true relief
     if truth.field is None or fitted.field is None:
         return None
     t = _describe(truth.field, settings)
@@ -132,7 +136,8 @@ def plot_profiles(rows: pd.DataFrame, target: str | os.PathLike[str]) -> None:
 def diagnosis_job(images: dict[str, dict[str, str]], settings: StructureSettings, md_path: str, csv_path: str,
                   png_path: str) -> pd.DataFrame:
     """The ``spectra_diagnosis`` rule: compare true and fitted reliefs of every image that has both."""
-    rows = [compare_image(i, v["fabric_class"], v["path"], v["fit_dir"], settings) for i, v in images.items()]
+    rows = [compare_image(i, v["fabric_class"], v["path"], v["fit_dir"], settings, v.get("prepared_dir"))
+            for i, v in images.items()]
     table = pd.DataFrame([r for r in rows if r is not None])
     write_text(Path(csv_path), table.to_csv(index=False, lineterminator="\n", float_format="%.6f"))
     lines = ["# Fitted against true relief, per class", "",

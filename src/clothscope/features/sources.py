@@ -15,7 +15,7 @@ from clothscope.core.imageio import read_exr, read_png
 from clothscope.core.truth import decode_normal, truth_paths
 from clothscope.fit.outputs import HEIGHT_FILE, NORMAL_FILE, SHADE_FILE, STATE_FILE
 from clothscope.fit.target import SHARE_FLOOR
-from clothscope.prepare.image import IMAGE_FILE, STATUS_FILE
+from clothscope.prepare.image import IMAGE_FILE, STATUS_FILE, in_prepared_frame
 from clothscope.prepare.shading import shading
 
 #: Where the maps come from: synthetic ground truth, the inverse renderer, or the photo alone.
@@ -70,8 +70,31 @@ def unusable_input(status: str, reason: str, variant: str) -> NormalInput:
     return NormalInput(None, None, 0.0, 0.0, status, " ".join(reason.split()), variant, 0.0)
 
 
-def load_truth(image_path: str | os.PathLike[str]) -> NormalInput:
-    """Ground-truth normal map and BSDF of a synthetic image; ``missing`` when the files are not there."""
+def truth_in_prepared_frame(normals: np.ndarray, height: np.ndarray,
+                            prepared_dir: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
+    """The true normal and height maps cropped and resized as ``prepare`` made the working photo
+    (:func:`clothscope.prepare.image.in_prepared_frame`), so they cover what the photo and fitted maps cover.
+
+    Left as they are when the photo was rejected or its status is unreadable: there is no working frame then.
+    """
+    try:
+        status = json.loads((Path(prepared_dir) / STATUS_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return normals, height
+    if status.get("status") != "accepted":
+        return normals, height
+    framed = in_prepared_frame(normals, status)
+    if framed is not normals:
+        framed = framed / np.maximum(np.linalg.norm(framed, axis=-1, keepdims=True), 1e-12)
+    return framed, in_prepared_frame(height, status)
+
+
+def load_truth(image_path: str | os.PathLike[str], prepared_dir: str | os.PathLike[str] | None = None) -> NormalInput:
+    """Ground-truth normal map and BSDF of a synthetic image; ``missing`` when the files are not there.
+
+    With ``prepared_dir`` (the photo's prepared folder) the maps are put in the working photo's frame
+    (:func:`truth_in_prepared_frame`); without it they keep the native photo's.
+    """
     paths = truth_paths(Path(image_path))
     absent = [str(paths[k]) for k in ("normal", "height", "json") if not paths[k].is_file()]
     if absent:
@@ -83,7 +106,10 @@ def load_truth(image_path: str | os.PathLike[str]) -> NormalInput:
             raise ValueError(f"{paths['normal']}: expected an RGB normal map, got shape {normals.shape}")
         height = read_png(paths["height"]).astype(np.float64)
         height = height[..., 0] if height.ndim == 3 else height
-        return NormalInput(normals[..., :3], height, finite_number(truth["roughness"], "roughness"), finite_number(truth["specular"], "specular"),
+        normals = normals[..., :3]
+        if prepared_dir is not None:
+            normals, height = truth_in_prepared_frame(normals, height, prepared_dir)
+        return NormalInput(normals, height, finite_number(truth["roughness"], "roughness"), finite_number(truth["specular"], "specular"),
                            STATUS_OK, "", "truth", 1.0)
     except (OSError, ValueError, KeyError, TypeError) as err:
         return unusable_input("failed", f"ground truth of {image_path} unreadable: {type(err).__name__}: {err}", "truth")
@@ -227,11 +253,11 @@ def descriptor_period(source: str, prepared_dir: str | os.PathLike[str] | None, 
 
 def load_normal_input(source: str, image_path: str | os.PathLike[str], source_dir: str | os.PathLike[str] | None,
                       fitted_field: str | None, photo_field: str | None) -> NormalInput:
-    """:func:`load_truth`, :func:`load_fitted` (``source_dir``: fit_normals folder; ``fitted_field``: what its
-    descriptor reads) or :func:`load_photo` (``source_dir``: prepared folder; ``photo_field``: what its
-    descriptor reads), by ``source``."""
+    """:func:`load_truth` (``source_dir``: the prepared folder, or None to keep the native frame),
+    :func:`load_fitted` (``source_dir``: fit_normals folder; ``fitted_field``: what its descriptor reads) or
+    :func:`load_photo` (``source_dir``: prepared folder; ``photo_field``: what its descriptor reads), by ``source``."""
     if source == "truth":
-        return load_truth(image_path)
+        return load_truth(image_path, source_dir)
     if source in ("fitted", "photo"):
         if source_dir is None:
             raise ValueError(f"the {source} source needs its input folder")

@@ -356,15 +356,43 @@ def centred(array: np.ndarray, side: int | None) -> np.ndarray:
     return square[top : top + side, top : top + side]
 
 
+def resized_square(array: np.ndarray, size: int, crop: int | None = None) -> np.ndarray:
+    """The centred ``crop`` square (default the largest) of an (H, W) or (H, W, C) array, each channel resized to ``size``."""
+    square = centred(array, crop)
+    if square.ndim == 2:
+        return resize_channel(square, size)
+    return np.stack([resize_channel(square[..., c], size) for c in range(square.shape[-1])], axis=-1)
+
+
 def to_working_resolution(rgb: np.ndarray, clipped: np.ndarray, size: int, crop: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Centre-crop (to ``crop`` px, default the largest square) and resize linear RGB and the clipped mask to ``size``.
 
     A working pixel is clipped when any source pixel under it was clipped.
     """
-    square = centred(rgb, crop)
-    out = np.stack([resize_channel(square[..., c], size) for c in range(3)], axis=-1)
-    mask = resize_channel(centred(clipped, crop).astype(np.float32), size) > 1e-6
+    out = resized_square(rgb[..., :3], size, crop)
+    mask = resized_square(clipped.astype(np.float32), size, crop) > 1e-6
     return np.clip(out, 0.0, None), mask
+
+
+def in_prepared_frame(array: np.ndarray, status: dict[str, Any]) -> np.ndarray:
+    """A map of the photo's native frame (same size as the photo) cropped and resized as ``prepare`` made the working image.
+
+    ``status`` is the photo's accepted status record (``source_size``, ``scale.crop_px``,
+    ``settings.working_resolution``). A map that the crop and resize leave as it is comes back unchanged.
+
+    Raises
+    ------
+    ValueError
+        When the map's size is not the photo's.
+    """
+    source = [int(v) for v in status["source_size"]]
+    if list(array.shape[1::-1]) != source:
+        raise ValueError(f"a {array.shape[1]}x{array.shape[0]} px map does not match its {source[0]}x{source[1]} px photo")
+    size = int(status["settings"]["working_resolution"])
+    crop = int((status.get("scale") or {}).get("crop_px", min(source)))
+    if crop == size == min(source) and source[0] == source[1]:
+        return array
+    return resized_square(np.asarray(array, dtype=np.float32), size, crop)
 
 
 #: Standard deviation (working pixels) of the Gaussian whose residual is the thread-scale detail of :func:`thread_detail`.
