@@ -141,7 +141,9 @@ rule sweep_reports:
 rule spectra_diagnosis:
     input:
         normals=[fit_normals_dir(image) for image in images_with_truth()],
-        prepared=[os.path.join(RESULTS, "prepared", image) for image in images_with_truth()],
+        prepared=[
+            os.path.join(RESULTS, "prepared", image) for image in images_with_truth()
+        ],
     output:
         md=report(
             os.path.join(RESULTS, "reports", "diagnosis", "spectra.md"),

@@ -139,7 +139,8 @@ def fit_normals_dir(image):
 
 def normal_source_inputs(source, image):
     """Files one image's features come from: its fit_normals folder and prepared photo, its prepared photo, or its
-    image, ground truth and prepared photo (whose crop and scale the true maps are put in)."""
+    image, ground truth and prepared photo (whose crop and scale the true maps are put in).
+    """
     if source == "fitted":
         return {
             "normals": fit_normals_dir(image),
