@@ -14,8 +14,13 @@ the files the sheet names (a field set's 1024-2048 px photos, for example), and
 the table adds the prepare job's seconds and memory, the photo's native size and
 ``image_s`` (prepare and fit).
 
-    .venv/bin/python workflow/benchmarks/fit_speed.py [--variants default,lean,fast,seed_cycle] [--images ...] [--rounds 2]
-        [--sheet config/samples.tsv] [--prepare]
+A variant ``at:<commit>`` is the default preset with the code of another commit (its tracked files unpacked under
+``<out>/code``, its own Snakefile, schema and package), so the time of today's code and of an older one are
+measured as a ratio on the same machine in the same hour; with such a variant every variant prepares its photos
+with its own code.
+
+    .venv/bin/python workflow/benchmarks/fit_speed.py [--variants default,lean,fast,seed_cycle,at:<commit>] [--images ...]
+        [--rounds 2] [--sheet config/samples.tsv] [--prepare]
 
 Writes ``<out>/fit_speed.csv`` (one row per image, variant and round) and
 ``<out>/fit_speed.md`` (medians per variant and each variant's time as a
@@ -30,7 +35,7 @@ from pathlib import Path
 
 import pandas as pd
 import yaml
-from harness import ROOT, STAGES, TWO_PER_CLASS, fit_costs, publish, seed_prepared, shown, snakemake, write_sheet
+from harness import ROOT, STAGES, TWO_PER_CLASS, code_at, fit_costs, publish, seed_prepared, shown, snakemake, write_sheet
 
 from clothscope.evaluate.accuracy import benchmark_seconds
 
@@ -43,6 +48,13 @@ VARIANTS: dict[str, tuple[str, dict]] = {
     # the normal-map stage cycles through 16 seeds and reuses their intersections (docs/design.md)
     "seed_cycle": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "seed_cycle.yaml").read_text())),
 }
+#: prefix of a variant that fits with the default preset of another commit's code
+AT = "at:"
+
+
+def preset_and_overlay(name: str) -> tuple[str, dict]:
+    """The preset and overlay of knobs of variant ``name`` (``at:<commit>``: the default preset, no overlay)."""
+    return ("default", {}) if name.startswith(AT) else VARIANTS[name]
 
 
 def prepare_costs(folder: Path, image: str) -> dict[str, float]:
@@ -52,10 +64,10 @@ def prepare_costs(folder: Path, image: str) -> dict[str, float]:
     return {"prepare_s": seconds, "prepare_max_rss_mb": rss, "native_px": max(status.get("source_size") or [0])}
 
 
-def fit_variant(name: str, images: list[str], folder: Path, source: Path, prepare: bool) -> pd.DataFrame:
-    """Fit ``images`` of the sheet ``source`` with variant ``name`` into the emptied ``folder`` (preparing the photos
-    too with ``prepare``); one row of stage seconds and memory per image."""
-    preset, overlay = VARIANTS[name]
+def fit_variant(name: str, images: list[str], folder: Path, source: Path, prepare: bool, root: Path = ROOT) -> pd.DataFrame:
+    """Fit ``images`` of the sheet ``source`` with variant ``name`` and the code in ``root`` into the emptied
+    ``folder`` (preparing the photos too with ``prepare``); one row of stage seconds and memory per image."""
+    preset, overlay = preset_and_overlay(name)
     shutil.rmtree(folder, ignore_errors=True)
     folder.mkdir(parents=True)
     if not prepare:
@@ -65,7 +77,7 @@ def fit_variant(name: str, images: list[str], folder: Path, source: Path, prepar
     sheet = write_sheet(images, folder / "samples.tsv", source)
     snakemake(["--configfile", "config/config.yaml", str(folder / "overlay.yaml"), "--quiet", "all", "--config",
                f"preset={preset}", f"samples={sheet}", f"results={folder}", "--",
-               *[str(folder / "fit" / image / "normals") for image in images]], capture=True)
+               *[str(folder / "fit" / image / "normals") for image in images]], capture=True, root=root)
     rows = []
     for image in images:
         row = {"image_id": image, "variant": name} | fit_costs(folder, image)
@@ -84,7 +96,8 @@ def summary(table: pd.DataFrame, names: list[str], images: int, rounds: int, sou
     medians = table.groupby("variant")[timed].median().reindex(names)
     medians["max_rss_mb"] = table.groupby("variant")["max_rss_mb"].max().reindex(names)
     medians[f"fit_s / {names[0]}"] = medians["fit_s"] / medians.loc[names[0], "fit_s"]
-    overlays = [f"- `{name}`: preset `{VARIANTS[name][0]}`, overlay `{json.dumps(VARIANTS[name][1])}`" for name in names]
+    overlays = [f"- `{name}`: the default preset with the code of commit `{name[len(AT):]}`" if name.startswith(AT) else
+                f"- `{name}`: preset `{VARIANTS[name][0]}`, overlay `{json.dumps(VARIANTS[name][1])}`" for name in names]
     photos = (f"The photos are {int(table['native_px'].min())}-{int(table['native_px'].max())} px on their long side "
               "and were prepared in every round (`prepare_s`; `image_s` is prepare and fit; `max_rss_mb` is the "
               "largest of the four jobs'). " if "native_px" in table else "")
@@ -97,7 +110,8 @@ def summary(table: pd.DataFrame, names: list[str], images: int, rounds: int, sou
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--variants", default=",".join(VARIANTS), help=f"any of {', '.join(VARIANTS)}; the first is the reference")
+    parser.add_argument("--variants", default=",".join(VARIANTS),
+                        help=f"any of {', '.join(VARIANTS)} or {AT}<commit>; the first is the reference")
     parser.add_argument("--images", default=TWO_PER_CLASS)
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--out", default="results/bench/fit_speed")
@@ -106,7 +120,7 @@ def main() -> int:
                         help="prepare the photos in every round instead of copying the main run's (always with another --sheet)")
     args = parser.parse_args()
     names, images = args.variants.split(","), args.images.split(",")
-    unknown = sorted(set(names) - set(VARIANTS))
+    unknown = sorted(name for name in set(names) - set(VARIANTS) if not name.startswith(AT))
     if unknown:
         raise SystemExit(f"fit_speed: error: unknown variant(s) {', '.join(unknown)}; choose from {', '.join(VARIANTS)}")
     if args.rounds < 1:
@@ -114,11 +128,13 @@ def main() -> int:
     out, source = (ROOT / args.out).resolve(), (ROOT / args.sheet).resolve()
     if not source.is_file():
         raise SystemExit(f"fit_speed: error: no sample sheet at {args.sheet}")
-    prepare = args.prepare or source != (ROOT / "config" / "samples.tsv").resolve()
+    roots = {name: code_at(name[len(AT):], out / "code") if name.startswith(AT) else ROOT for name in names}
+    prepare = args.prepare or source != (ROOT / "config" / "samples.tsv").resolve() or any(r != ROOT for r in roots.values())
     tables = []
     for round_ in range(args.rounds):
         for name in names if round_ % 2 == 0 else names[::-1]:
-            tables.append(fit_variant(name, images, out / "runs" / name, source, prepare).assign(round=round_))
+            folder = out / "runs" / name.replace(":", "_")
+            tables.append(fit_variant(name, images, folder, source, prepare, roots[name]).assign(round=round_))
             print(f"round {round_} {name}: median {tables[-1]['fit_s'].median():.2f} s per image", flush=True)
     table = pd.concat(tables, ignore_index=True)
     publish(out, "fit_speed", table, summary(table, names, len(images), args.rounds, source))

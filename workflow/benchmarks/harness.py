@@ -199,13 +199,36 @@ def fresh_run(results: Path, images: list[str] | None) -> Path:
     return write_sheet(images, results / "samples.tsv")
 
 
-def snakemake(args: list[str], cores: int = 2, home: str | None = None, capture: bool = False) -> float:
-    """Run ``snakemake --cores <cores> <args>`` in the repository; returns its wall time in seconds."""
-    env = dict(os.environ, HOME=home) if home else None
+def snakemake(args: list[str], cores: int = 2, home: str | None = None, capture: bool = False,
+              root: Path = ROOT) -> float:
+    """Run ``snakemake --cores <cores> <args>`` in the repository (or in ``root``, a copy of it at another commit,
+    whose ``src`` then comes first on the import path); returns its wall time in seconds."""
+    env = dict(os.environ)
+    if home:
+        env["HOME"] = home
+    if root != ROOT:
+        env["PYTHONPATH"] = os.pathsep.join([str(root / "src"), *filter(None, [env.get("PYTHONPATH")])])
     started = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "snakemake", "--cores", str(cores), *args], cwd=ROOT, env=env, check=True,
+    subprocess.run([sys.executable, "-m", "snakemake", "--cores", str(cores), *args], cwd=root, env=env, check=True,
                    capture_output=capture)
     return time.perf_counter() - started
+
+
+def code_at(commit: str, folder: Path) -> Path:
+    """The repository's tracked files at ``commit``, unpacked once into ``folder / <full sha>``; returns that copy."""
+    sha = subprocess.run(["git", "rev-parse", "--verify", f"{commit}^{{commit}}"], cwd=ROOT, capture_output=True,
+                         text=True)
+    if sha.returncode != 0:
+        raise SystemExit(f"{Path(sys.argv[0]).stem}: error: no commit {commit!r} in this repository")
+    copy = folder / sha.stdout.strip()
+    if not copy.is_dir():
+        partial = copy.with_name(copy.name + ".partial")
+        shutil.rmtree(partial, ignore_errors=True)
+        partial.mkdir(parents=True)
+        archive = subprocess.run(["git", "archive", sha.stdout.strip()], cwd=ROOT, capture_output=True, check=True)
+        subprocess.run(["tar", "-x", "-C", str(partial)], input=archive.stdout, check=True)
+        partial.rename(copy)
+    return copy
 
 
 def stage_benchmarks(results: Path, image: str) -> dict[str, tuple[float, float]]:
