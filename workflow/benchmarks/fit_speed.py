@@ -47,6 +47,8 @@ VARIANTS: dict[str, tuple[str, dict]] = {
     "fast": ("fast", {}),
     # the normal-map stage cycles through 16 seeds and reuses their intersections (docs/design.md)
     "seed_cycle": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "seed_cycle.yaml").read_text())),
+    # fast with fewer geometry, material and joint steps (docs/design.md, "A lighter fast preset")
+    "fast_lite": ("default", yaml.safe_load((ROOT / "config" / "overlays" / "fast_lite.yaml").read_text())),
 }
 #: prefix of a variant that fits with the default preset of another commit's code
 AT = "at:"
@@ -61,7 +63,14 @@ def prepare_costs(folder: Path, image: str) -> dict[str, float]:
     """The prepare job's seconds and peak RSS MB, and the photo's native long side."""
     seconds, rss = benchmark_seconds(folder / "benchmarks" / "prepare" / f"{image}.tsv") or (float("nan"), float("nan"))
     status = json.loads((folder / "prepared" / image / "status.json").read_text(encoding="utf-8"))
-    return {"prepare_s": seconds, "prepare_max_rss_mb": rss, "native_px": max(status.get("source_size") or [0])}
+    return {"prepare_s": seconds, "prepare_max_rss_mb": rss, "native_px": max(status.get("source_size") or [float("nan")])}  # older code may not record it
+
+
+def with_paths_from_root(sheet: Path) -> None:
+    """Rewrite the relative photo paths of ``sheet`` as absolute paths under the repository, for a run in another copy."""
+    table = pd.read_csv(sheet, sep="\t", dtype=str, keep_default_na=False)
+    table["path"] = [str(ROOT / path) for path in table["path"]]  # an absolute path stays as it is
+    table.to_csv(sheet, sep="\t", index=False)
 
 
 def fit_variant(name: str, images: list[str], folder: Path, source: Path, prepare: bool, root: Path = ROOT) -> pd.DataFrame:
@@ -75,6 +84,8 @@ def fit_variant(name: str, images: list[str], folder: Path, source: Path, prepar
             seed_prepared(folder, image)
     (folder / "overlay.yaml").write_text(json.dumps(overlay))
     sheet = write_sheet(images, folder / "samples.tsv", source)
+    if root != ROOT:
+        with_paths_from_root(sheet)
     snakemake(["--configfile", "config/config.yaml", str(folder / "overlay.yaml"), "--quiet", "all", "--config",
                f"preset={preset}", f"samples={sheet}", f"results={folder}", "--",
                *[str(folder / "fit" / image / "normals") for image in images]], capture=True, root=root)

@@ -929,6 +929,18 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/backward_pass_1203b.md",),
                         f"{py}/backward_pass.py --ways direct --name backward_pass_1203b (run alone, right after "
                         "fit_speed_field_1203)"),
+        BenchmarkReport("Fit time per image against the code issue 18 was filed with (d2ab236), 2026-12-04",
+                        ("bench/fit_speed_1204/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants default,fast,at:d2ab236 --out results/bench/fit_speed_1204 (run alone, "
+                        "after a fresh clone's default run)"),
+        BenchmarkReport("A lighter fast preset against fast and the code of d2ab236, 2026-12-04",
+                        ("bench/fit_speed_fast_lite/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants fast,fast_lite,at:d2ab236 --rounds 1 --out results/bench/fit_speed_fast_lite "
+                        "(run alone, right after fit_speed_1204)"),
+        BenchmarkReport("Fit time per image on field photos against the code of d2ab236, prepare included, 2026-12-04",
+                        ("bench/fit_speed_field_1204/fit_speed.md",),
+                        f"{py}/fit_speed.py --sheet results/weaves_1163/field/samples.tsv --variants default,at:d2ab236 "
+                        f"--rounds 2 --images {FIELD_TIMED} --out results/bench/fit_speed_field_1204 (run alone)"),
         BenchmarkReport("Run-to-run noise and the lean fit", ("bench/run_figures/run_figures.md",),
                         f"{py}/run_figures.py results results/exp_seed/design results/exp_lean/design results/holdout/run "
                         "results/exp_lean/holdout results/holdout_confirm/run results/exp_seed/confirm results/exp_lean/confirm "
