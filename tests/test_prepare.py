@@ -4,6 +4,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import tracemalloc
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -467,12 +468,35 @@ def test_fuzzed_files_decode_or_are_rejected_with_one_line(valid_files, tmp_path
     """Truncated, bit-flipped or overwritten PNG, JPEG, TIFF, BMP, WebP and EXR files: finite pixels or one line, never another error."""
     path = tmp_path / f"fuzzed.{suffix}"
     path.write_bytes(mutated(valid_files[suffix], mutation))
-    try:
-        decoded = decode(path, min_px=16)
-    except ImageRejected as err:
-        assert str(err).startswith(str(path)) and "\n" not in str(err)
-    else:
-        assert decoded.rgb.ndim == 3 and np.isfinite(decoded.rgb).all()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a decoder's warning becomes a note, never a warning on stderr
+        try:
+            decoded = decode(path, min_px=16)
+        except ImageRejected as err:
+            assert str(err).startswith(str(path)) and "\n" not in str(err)
+        else:
+            assert decoded.rgb.ndim == 3 and np.isfinite(decoded.rgb).all()
+
+
+def test_a_decoder_warning_becomes_one_note_not_a_warning(tmp_path):
+    """A TIFF whose description tag claims more bytes than the file holds decodes; Pillow's warning is a note."""
+    import io
+    import struct
+
+    buffer = io.BytesIO()
+    Image.fromarray(gradient_rgb(40, 40)).save(buffer, format="TIFF", description="x" * 64)
+    data = bytearray(buffer.getvalue())
+    ifd = struct.unpack_from("<I", data, 4)[0]
+    for entry in range(struct.unpack_from("<H", data, ifd)[0]):
+        offset = ifd + 2 + 12 * entry
+        if struct.unpack_from("<H", data, offset)[0] == 270:  # ImageDescription: claim a million bytes
+            struct.pack_into("<I", data, offset + 4, 10**6)
+    (tmp_path / "damaged_tag.tif").write_bytes(bytes(data))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        decoded = decode(tmp_path / "damaged_tag.tif", min_px=16)
+    assert decoded.rgb.shape == (40, 40, 3)
+    assert decoded.notes == ["decoder warning: Tag data larger than file. Skipping tag 270"]
 
 
 def test_decompression_bomb_is_refused_from_the_header(tmp_path):

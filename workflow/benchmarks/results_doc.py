@@ -836,6 +836,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "2026-12-03", ("bench/class_subsets_record_1203.md",),
                         f"{py}/class_subsets.py --design results --holdout results/holdout_1178/run --record-only "
                         "--name class_subsets_record_1203"),
+        BenchmarkReport("The paper's class subsets: the classifier of record, a fresh clone's default run and held-out 1178, "
+                        "2026-12-04 (both rerun on this day's machine)", ("bench/class_subsets_record_1204.md",),
+                        f"{py}/class_subsets.py --design results --holdout results/holdout_1178/run --record-only "
+                        "--name class_subsets_record_1204"),
         BenchmarkReport("Invariance of predictions, refitted, LBP at the field's pixels (the default until the "
                         "twenty-third session)", ("bench/invariance_pixels/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --scores-only "

@@ -148,15 +148,26 @@ def _without_pillow_size_guard() -> Iterator[None]:
         Image.MAX_IMAGE_PIXELS = pillow_limit
 
 
-def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold: float) -> DecodedImage:
-    """Decode PNG, JPEG, TIFF, BMP, WebP (or anything Pillow reads) with EXIF orientation applied."""
-    try:
-        with _without_pillow_size_guard():
-            img = Image.open(path)
+def _loaded(path: Path, min_px: int, max_megapixels: float) -> tuple[Image.Image, str, str]:
+    """The image at ``path`` opened, its size checked and its pixels loaded, with its raw mode and format; the file is
+    closed again when any of it fails."""
+    with _without_pillow_size_guard():
+        img = Image.open(path)
+        try:
             _check_size(path, img.width, img.height, min_px, max_megapixels)
             rawmode = img.tile[0].args if img.tile and isinstance(img.tile[0].args, str) else ""
             fmt = img.format or "unknown"
             img.load()
+        except BaseException:
+            img.close()
+            raise
+    return img, rawmode, fmt
+
+
+def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold: float) -> DecodedImage:
+    """Decode PNG, JPEG, TIFF, BMP, WebP (or anything Pillow reads) with EXIF orientation applied."""
+    try:
+        img, rawmode, fmt = _loaded(path, min_px, max_megapixels)
     except ImageRejected:
         raise
     except Image.UnidentifiedImageError:
@@ -166,16 +177,16 @@ def decode_raster(path: Path, min_px: int, max_megapixels: float, clip_threshold
         raise _reject(path, "not a readable image (unknown or corrupt format)") from None
     except (OSError, SyntaxError, ValueError) as err:
         raise _reject(path, f"cannot decode {path.suffix or 'file'}: {err}") from None
-    orientation = img.getexif().get(0x0112, 1)
-    if fmt == "PNG" and rawmode in _PNG16_RAWMODES:
-        encoded, depth, notes = _decode_png16(path), 16, []
-        if orientation not in (1, None):
-            notes.append("EXIF orientation of 16-bit colour PNG ignored")
-    else:
-        img = ImageOps.exif_transpose(img)
-        encoded, depth, notes = _normalised_channels(img)
-        if orientation not in (1, None):
-            notes.append(f"EXIF orientation {orientation} applied")
+    with img:
+        orientation = img.getexif().get(0x0112, 1)
+        if fmt == "PNG" and rawmode in _PNG16_RAWMODES:
+            encoded, depth, notes = _decode_png16(path), 16, []
+            if orientation not in (1, None):
+                notes.append("EXIF orientation of 16-bit colour PNG ignored")
+        else:
+            encoded, depth, notes = _normalised_channels(ImageOps.exif_transpose(img))
+            if orientation not in (1, None):
+                notes.append(f"EXIF orientation {orientation} applied")
     encoded = _to_rgb(encoded)
     if fmt == "TIFF" and depth == 8 and ";16" in rawmode:
         notes.append("16-bit colour TIFF decoded at 8-bit precision")
@@ -301,7 +312,17 @@ def decode_image(
         raise _reject(path, problem)
     if path.suffix.lower() in EXR_SUFFIXES:
         return decode_exr(path, min_px, max_megapixels)
-    return decode_raster(path, min_px, max_megapixels, clip_threshold)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        decoded = decode_raster(path, min_px, max_megapixels, clip_threshold)
+    decoded.notes.extend(decoder_notes(caught))
+    return decoded
+
+
+def decoder_notes(caught: list[warnings.WarningMessage]) -> list[str]:
+    """One note per distinct warning the decoder raised (a damaged TIFF tag, a truncated chunk), for the status file
+    instead of a Python warning naming the decoder's source on stderr."""
+    return list(dict.fromkeys(f"decoder warning: {w.message}" for w in caught))
 
 
 def write_png(target: str | os.PathLike[str], encoded: np.ndarray, bits: int = 8) -> None:
