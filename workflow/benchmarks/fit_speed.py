@@ -63,7 +63,8 @@ def prepare_costs(folder: Path, image: str) -> dict[str, float]:
     """The prepare job's seconds and peak RSS MB, and the photo's native long side."""
     seconds, rss = benchmark_seconds(folder / "benchmarks" / "prepare" / f"{image}.tsv") or (float("nan"), float("nan"))
     status = json.loads((folder / "prepared" / image / "status.json").read_text(encoding="utf-8"))
-    return {"prepare_s": seconds, "prepare_max_rss_mb": rss, "native_px": max(status.get("source_size") or [float("nan")])}  # older code may not record it
+    native = max(status.get("source_size") or [float("nan")])  # older code may not record it
+    return {"prepare_s": seconds, "prepare_max_rss_mb": rss, "native_px": native}
 
 
 def with_paths_from_root(sheet: Path) -> None:
@@ -111,7 +112,7 @@ def summary(table: pd.DataFrame, names: list[str], images: int, rounds: int, sou
                 f"- `{name}`: preset `{VARIANTS[name][0]}`, overlay `{json.dumps(VARIANTS[name][1])}`" for name in names]
     photos = (f"The photos are {int(table['native_px'].min())}-{int(table['native_px'].max())} px on their long side "
               "and were prepared in every round (`prepare_s`; `image_s` is prepare and fit; `max_rss_mb` is the "
-              "largest of the four jobs'). " if "native_px" in table else "")
+              "largest of the four jobs'). " if table.get("native_px", pd.Series(dtype=float)).notna().any() else "")
     return "\n".join(["# Fit time per image, variants side by side", "",
                       f"{images} images of `{shown(source)}`, {rounds} rounds (the variants' order reversed every round); "
                       "all three fit stages through snakemake, two images side by side on two cores, one Dr.Jit thread "

@@ -220,12 +220,13 @@ def code_at(commit: str, folder: Path) -> Path:
                          text=True)
     if sha.returncode != 0:
         raise SystemExit(f"{Path(sys.argv[0]).stem}: error: no commit {commit!r} in this repository")
-    copy = folder / sha.stdout.strip()
+    full = sha.stdout.strip()
+    copy = folder / full
     if not copy.is_dir():
-        partial = copy.with_name(copy.name + ".partial")
+        partial = copy.with_name(full + ".partial")
         shutil.rmtree(partial, ignore_errors=True)
         partial.mkdir(parents=True)
-        archive = subprocess.run(["git", "archive", sha.stdout.strip()], cwd=ROOT, capture_output=True, check=True)
+        archive = subprocess.run(["git", "archive", full], cwd=ROOT, capture_output=True, check=True)
         subprocess.run(["tar", "-x", "-C", str(partial)], input=archive.stdout, check=True)
         partial.rename(copy)
     return copy
