@@ -853,6 +853,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/invariance_1202/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --out results/bench/invariance_1202 "
                         "(every transformed photo prepared and fitted from scratch, after a fresh clone's default run)"),
+        BenchmarkReport("Invariance of predictions, refitted, 2026-12-04",
+                        ("bench/invariance_1204/invariance_fitted.md",),
+                        f"{py}/invariance_fitted.py --images all --out results/bench/invariance_1204 "
+                        "(every transformed photo prepared and fitted from scratch, after a fresh clone's default run)"),
         BenchmarkReport("The invariance benchmark's own noise: every photo refitted as it is, with other render samples",
                         ("bench/invariance_noise_1203/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --transforms refit --overlay config/overlays/fit_seed_1.yaml "
