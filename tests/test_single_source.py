@@ -105,11 +105,12 @@ def test_enum_tuples_of_the_code_are_the_schema_enums():
     from clothscope.core.fourier import WINDOWS
     from clothscope.core.runtime import VARIANTS
     from clothscope.features.sources import FITTED_FIELDS, NORMAL_SOURCES, PHOTO_FIELDS
-    from clothscope.fit.colour import COLOUR_MODELS
+    from clothscope.fit.colour import COLOUR_MODELS, LAYOUT_MIXINGS
 
     for values, key in ((WINDOWS, "features.window"), (VARIANTS, "variant"), (FITTED_FIELDS, "features.fitted_field"),
                         (PHOTO_FIELDS, "features.photo_field"),
                         (NORMAL_SOURCES, "features.normal_source"), (COLOUR_MODELS, "fit.normals.colour_model"),
+                        (LAYOUT_MIXINGS, "fit.normals.layout_mixing"),
                         (SUBSPACES, "classify.subspace")):
         assert sorted(values) == sorted(node(key)["enum"]), key
 

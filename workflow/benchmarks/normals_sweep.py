@@ -72,7 +72,7 @@ def fit_one(job: tuple[str, str, dict]) -> dict:
     plan = plan_stage("normals", geometry_evidence(fit.grid, fit.camera, fit.light))
     knobs, _ = relief_prior(NormalSettings(**settings), fit.light)  # as the fit_normals job chooses its prior
     started = time.perf_counter()
-    colour = choose_colour_model(knobs.colour_model, photo.image, knobs.texture, fit.margin)
+    colour = choose_colour_model(knobs.colour_model, photo.image, knobs.texture, fit.margin, knobs.layout_mixing)
     _, material, _, _ = fit_normals(mi, fit, at_resolution(photo, settings["resolution"]), plan, knobs,
                                  logging.getLogger("normals_sweep"), colour, validated_config()["fit"]["sample_seed"])
     return {"image_id": image, "fabric_class": fabric_class, "roughness": material.roughness,

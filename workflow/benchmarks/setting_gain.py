@@ -11,7 +11,7 @@ are reused). Reads both folders' ``reports/feature_sets.csv`` and the classifier
 the pairs, into ``results/bench/<name>.{csv,md}``. Nothing is chosen here.
 
 With ``--rerun OVERLAY``, each AFTER folder is first made here: BEFORE's ``prepared``, ``fit`` and ``features``
-copied in, the ``--drop`` paths under it removed (the outputs the setting changes), then the workflow run on it with
+copied in, the ``--drop`` paths or glob patterns under it removed (the outputs the setting changes), then the workflow run on it with
 ``config/config.yaml`` and OVERLAY (and ``samples=SHEET`` where the pair names one). An existing AFTER is replaced.
 """
 from __future__ import annotations
@@ -54,10 +54,12 @@ def rerun_with(before: Path, after: Path, overlay: Path, drop: list[str], sheet:
     after.mkdir(parents=True)
     for folder in COPIED:
         shutil.copytree(before / folder, after / folder, symlinks=True)
-    for path in drop:
-        shutil.rmtree(after / path, ignore_errors=True)
+    for pattern in drop:
+        for path in sorted(after.glob(pattern)):
+            shutil.rmtree(path, ignore_errors=True)
     config = [f"results={after.relative_to(ROOT)}", *([f"samples={sheet}"] if sheet else [])]
-    snakemake(["--configfile", "config/config.yaml", str(overlay), "--config", *config])
+    # the copies carry no Snakemake records, so only the dropped outputs and what follows them by time rerun
+    snakemake(["--configfile", "config/config.yaml", str(overlay), "--rerun-triggers", "mtime", "--config", *config])
 
 
 def rerun_problem(before: str, after: str) -> str | None:
@@ -82,7 +84,8 @@ def main() -> None:
     parser.add_argument("pairs", nargs="+", help="BEFORE:AFTER results folders (paths under the repository root), "
                         "with --rerun also BEFORE:AFTER:SHEET (the sample sheet of a run not made from config/samples.tsv)")
     parser.add_argument("--rerun", type=Path, help="config overlay: make each AFTER from BEFORE with it first")
-    parser.add_argument("--drop", action="append", default=[], help="with --rerun: a path under AFTER removed before the run (repeat for more)")
+    parser.add_argument("--drop", action="append", default=[], help="with --rerun: a path or glob pattern under AFTER removed before the run "
+                        "(for example 'fit/*/normals'; repeat for more)")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     parser.add_argument("--name", default="setting_gain")
     args = parser.parse_args()

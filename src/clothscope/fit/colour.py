@@ -9,6 +9,11 @@ dye-group mean colour over the photo's mean colour, so the fitted colour stays
 the cloth's mean colour. The layout is read from the photo, not optimised, so
 no relief can leak into it. The choice is recorded in the stage's ``state.json``.
 
+A pixel on the edge between two yarns of different dyes shows a mixture of
+their colours (defocus, downscaling). ``layout_mixing: mixed`` gives each pixel
+the non-negative least-squares mixture of the groups' mean colours that
+matches it (:func:`mixed_colours`); ``hard`` gives it its group's mean.
+
 ``dye_layout`` uses the layout whenever the photo holds more than one dye
 group. ``auto`` asks for more evidence, because one dye can split into
 chromaticity groups too: a specular highlight or a grey backdrop seen through
@@ -25,6 +30,7 @@ highlight fades into the dye, so its pixels fill the line.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import combinations
 from typing import Any
 
 import numpy as np
@@ -36,42 +42,115 @@ from clothscope.prepare.shading import chromaticity, dye_groups
 
 #: values of ``fit.normals.colour_model``
 COLOUR_MODELS = ("auto", "one_colour", "dye_layout")
+#: values of ``fit.normals.layout_mixing``: each pixel its group's mean colour, or the mixture of the means that matches it
+LAYOUT_MIXINGS = ("hard", "mixed")
 #: ``auto``: linear luminance below which a pixel's chromaticity is mostly noise (8-bit sRGB codes below about 18)
 DARK_LUMINANCE = 0.005
 #: ``auto``: two groups are two dyes when the chromaticity density between them dips to this fraction of the lower peak
 VALLEY_FRACTION = 0.7
+#: ``mixed``: a group whose mean colour a non-negative mixture of the others' reaches within this fraction of its length
+#: is a band of mixed pixels (yarn edges), not a dye of its own (:func:`dye_colours`)
+MIXTURE_TOLERANCE = 0.05
 #: histogram of the pixels' position along the line between two groups (0 at one group's mean, 1 at the other's)
 LINE_BINS, LINE_RANGE, LINE_SMOOTHING = 40, (-0.5, 1.5), 1.0
 
 
 @dataclass(frozen=True)
 class ColourModel:
-    """The base colour's model: ``one_colour`` or ``dye_layout`` with its (T, T, 3) layout texture."""
+    """The base colour's model: ``one_colour`` or ``dye_layout`` with its (T, T, 3) layout texture and its mixing."""
 
     kind: str
     layout: np.ndarray | None = None
     shares: tuple[float, ...] = (1.0,)
+    mixing: str = "hard"
 
     def as_record(self) -> dict[str, Any]:
-        """What ``state.json`` records: the kind, the number of groups that hold any photo pixel, and every group's share."""
-        return {"kind": self.kind, "dye_groups": sum(1 for s in self.shares if s > 0),
-                "shares": [round(float(s), 4) for s in self.shares]}
+        """What ``state.json`` records: the kind, the number of groups that hold any photo pixel, every group's share
+        and, for a layout, how its pixels' colours were taken (:data:`LAYOUT_MIXINGS`)."""
+        record = {"kind": self.kind, "dye_groups": sum(1 for s in self.shares if s > 0),
+                  "shares": [round(float(s), 4) for s in self.shares]}
+        return record | ({"mixing": self.mixing} if self.layout is not None else {})
 
 
-def texel_groups(groups: np.ndarray, texture: int, margin: float) -> np.ndarray:
-    """(T, T) dye group under each texel of the plane, which overhangs the view by ``margin`` in all (edge groups extend)."""
-    size = groups.shape[0]
+def texel_samples(image: np.ndarray, texture: int, margin: float) -> np.ndarray:
+    """The photo pixel under each texel of the plane, which overhangs the view by ``margin`` in all (edge pixels extend)."""
+    size = image.shape[0]
     index = np.clip(np.floor(texel_centres(texture, margin) * size).astype(int), 0, size - 1)
-    return groups[np.ix_(index, index)]
+    return image[np.ix_(index, index)]
 
 
-def layout_texture(photo: np.ndarray, groups: np.ndarray, texture: int, margin: float) -> tuple[np.ndarray, tuple[float, ...]]:
-    """(T, T, 3) texture of each texel's dye-group mean colour over the photo's mean colour, and the groups' area shares."""
+def mixture_weights(colours: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """(N, K) non-negative weights ``u`` minimising ``|c - u @ basis|`` for each of the (N, 3) ``colours``.
+
+    Non-negative least squares over K <= 3 basis colours, solved over every subset of them:
+    the best subset whose unconstrained solution is non-negative is the optimum. A colour
+    that only the zero mixture reaches gets zero weights.
+    """
+    best_residual = np.sum(colours**2, axis=1)
+    best = np.zeros((len(colours), len(basis)))
+    for k in range(1, len(basis) + 1):
+        for subset in combinations(range(len(basis)), k):
+            rows = list(subset)
+            weights = np.linalg.lstsq(basis[rows].T, colours.T, rcond=None)[0].T  # (N, k)
+            residual = np.sum((colours - weights @ basis[rows]) ** 2, axis=1)
+            better = np.all(weights >= 0, axis=1) & (residual < best_residual - 1e-15)
+            best_residual[better] = residual[better]
+            best[np.ix_(better, rows)] = weights[better]
+            best[np.ix_(better, [g for g in range(len(basis)) if g not in subset])] = 0.0
+    return best
+
+
+def mixed_colours(photo: np.ndarray, means: np.ndarray) -> np.ndarray:
+    """(H, W, 3) colour of each pixel as a mixture of the groups' mean colours (``means``, (K, 3), K <= 3).
+
+    The mixture is ``u @ means / sum(u)`` for the pixel's :func:`mixture_weights` ``u``: the
+    pixel's colour with its shading (``sum(u)``, alike for every group) divided out. A pixel
+    that no mixture reaches gets the means' average.
+    """
+    weights = mixture_weights(photo.reshape(-1, 3), means)
+    total = weights.sum(axis=1, keepdims=True)
+    mixed = np.where(total > 1e-12, weights @ means / np.maximum(total, 1e-12), means.mean(axis=0))
+    return mixed.reshape(photo.shape)
+
+
+def mixture_residual(colour: np.ndarray, basis: np.ndarray) -> float:
+    """Distance from ``colour`` to the nearest non-negative mixture of the ``basis`` rows, over the colour's length."""
+    weights = mixture_weights(colour[None], basis)[0]
+    return float(np.linalg.norm(colour - weights @ basis) / max(float(np.linalg.norm(colour)), 1e-12))
+
+
+def dye_colours(means: np.ndarray) -> np.ndarray:
+    """The rows of ``means`` (group mean colours) that are dyes: of three or more, a group that the others mix to
+    within :data:`MIXTURE_TOLERANCE` (the band of pixels where two yarns meet) is dropped, the closest first."""
+    dyes = np.asarray(means, dtype=np.float64)
+    while len(dyes) > 2:
+        residuals = [mixture_residual(dyes[g], np.delete(dyes, g, axis=0)) for g in range(len(dyes))]
+        closest = int(np.argmin(residuals))
+        if residuals[closest] >= MIXTURE_TOLERANCE:
+            break
+        dyes = np.delete(dyes, closest, axis=0)
+    return dyes
+
+
+def layout_texture(photo: np.ndarray, groups: np.ndarray, texture: int, margin: float,
+                   mixing: str) -> tuple[np.ndarray, tuple[float, ...]]:
+    """(T, T, 3) texture of each texel's dye colour over the photo's mean colour, and the groups' area shares.
+
+    ``mixing`` (:data:`LAYOUT_MIXINGS`): ``hard``, the texel's dye-group mean colour;
+    ``mixed``, the mixture of the dyes' mean colours (:func:`dye_colours`) that matches the pixel
+    (:func:`mixed_colours`), except for pixels darker than :data:`DARK_LUMINANCE`, which keep their group's mean.
+    """
+    if mixing not in LAYOUT_MIXINGS:
+        raise ValueError(f"layout_mixing must be one of {', '.join(LAYOUT_MIXINGS)}, got {mixing!r}")
     count = int(groups.max()) + 1
     shares = np.array([np.mean(groups == g) for g in range(count)])
     means = np.array([photo[groups == g].mean(axis=0) if shares[g] > 0 else np.zeros(3) for g in range(count)])
-    ratios = means / np.maximum(shares @ means, 1e-6)
-    return ratios[texel_groups(groups, texture, margin)].astype(np.float32), tuple(float(s) for s in shares)
+    colours = means[groups]
+    if mixing == "mixed":
+        bright = luminance(photo) >= DARK_LUMINANCE
+        colours[bright] = mixed_colours(photo[bright][None], dye_colours(means[shares > 0]))[0]
+    ratios = colours / np.maximum(shares @ means, 1e-6)
+    return texel_samples(ratios, texture, margin).astype(np.float32), tuple(float(s) for s in shares)
 
 
 def valley_ratio(chroma: np.ndarray, first: np.ndarray, second: np.ndarray) -> float:
@@ -109,8 +188,8 @@ def distinct_dyes(photo: np.ndarray, groups: np.ndarray) -> bool:
     return valley_ratio(chroma, first, second) <= VALLEY_FRACTION
 
 
-def choose_colour_model(kind: str, photo: np.ndarray, texture: int, margin: float) -> ColourModel:
-    """The colour model of ``kind`` for a working photo (finite linear RGB).
+def choose_colour_model(kind: str, photo: np.ndarray, texture: int, margin: float, mixing: str) -> ColourModel:
+    """The colour model of ``kind`` for a working photo (finite linear RGB); ``mixing`` as in :func:`layout_texture`.
 
     A photo with one dye group always gets ``one_colour``; under ``auto`` so does one whose groups fail
     :func:`distinct_dyes`.
@@ -118,8 +197,10 @@ def choose_colour_model(kind: str, photo: np.ndarray, texture: int, margin: floa
     Raises
     ------
     ValueError
-        When ``kind`` is not one of :data:`COLOUR_MODELS`.
+        When ``kind`` is not one of :data:`COLOUR_MODELS`, or ``mixing`` not one of :data:`LAYOUT_MIXINGS`.
     """
+    if mixing not in LAYOUT_MIXINGS:
+        raise ValueError(f"layout_mixing must be one of {', '.join(LAYOUT_MIXINGS)}, got {mixing!r}")
     if kind not in COLOUR_MODELS:
         raise ValueError(f"colour_model must be one of {', '.join(COLOUR_MODELS)}, got {kind!r}")
     if kind == "one_colour":
@@ -128,5 +209,5 @@ def choose_colour_model(kind: str, photo: np.ndarray, texture: int, margin: floa
     groups = dye_groups(rgb)
     if groups.max() == 0 or (kind == "auto" and not distinct_dyes(rgb, groups)):
         return ColourModel("one_colour")
-    layout, shares = layout_texture(rgb, groups, texture, margin)
-    return ColourModel("dye_layout", layout, shares)
+    layout, shares = layout_texture(rgb, groups, texture, margin, mixing)
+    return ColourModel("dye_layout", layout, shares, mixing)

@@ -142,7 +142,7 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
     """``fit_normals`` for one image: normal map, height map, preview and the refined BSDF (``sample_seed``: ``fit.sample_seed``)."""
     def body(tmp: Path) -> dict[str, Any]:
         fit, photo, mi, plan = _continue_fit(material_dir, prepared_dir, "normals", variant, threads, full_effects, log)
-        colour = choose_colour_model(settings.colour_model, photo.image, settings.texture, fit.margin)
+        colour = choose_colour_model(settings.colour_model, photo.image, settings.texture, fit.margin, settings.layout_mixing)
         log.info("colour model: %s", colour.as_record())
         fitted_with, prior = relief_prior(settings, fit.light)
         log.info("relief prior: %s", prior["reason"])

@@ -117,6 +117,7 @@ class NormalSettings:
     near_camera_deg: float  # a fitted light within this angle of the camera raises the curvature prior ...
     near_camera_smoothness: float  # ... to at least this weight (see relief_prior)
     colour_model: str  # auto, one_colour or dye_layout (clothscope.fit.colour)
+    layout_mixing: str  # hard or mixed: the dye layout's pixel colours (clothscope.fit.colour.layout_texture)
     initial_relief: str  # flat, or shading: the height map starts bright-high, dark-low (see initial_height)
     initial_slope: float  # RMS slope of the shading start (tangent of the tilt)
     seed_cycle: int  # > 0: iterations cycle through this many seeds and the renders reuse their intersections
