@@ -161,6 +161,43 @@ def test_a_striped_flat_cloth_keeps_its_stripes_in_the_colour_and_out_of_the_rel
     assert tilt["auto"] < 0.8 * tilt["one_colour"]  # ... and pushes them into the normals
 
 
+
+@pytest.mark.slow
+def test_a_blurred_dye_edge_is_colour_in_the_mixed_layout_not_tilt(tmp_path, mi):
+    """layout_mixing mixed: where defocus mixed two dyes, the layout takes the mixture and the flat cloth stays flatter."""
+    from scipy import ndimage
+
+    from clothscope.fit.model import shaded_texture
+
+    camera, material = FitCamera(), Material((0.5, 0.5, 0.5), 0.3, 0.7)
+    fit = FitScene(camera, FitLight(15, 30), plane_grid(camera, 32, 0.06), 0.06, material)
+    columns = np.arange(64)
+    stripes = np.where((columns // 8) % 2 == 1, np.array([[1.3], [1.2], [0.9]]), np.array([[0.3], [0.4], [1.0]])).T
+    blurred = ndimage.gaussian_filter1d(stripes, 2.0, axis=0, mode="wrap")  # the stripes' edges, mixed over a few texels
+    albedo = shaded_texture(material, np.ones((64, 64)), np.broadcast_to(blurred[None, :, :], (64, 64, 3)))
+    image = np.array(mi.render(build_scene(mi, fit, 64, {"type": "direct"}, "independent", albedo_texture=albedo), spp=32, seed=1))
+    write_png(tmp_path / "blurred.png", linear_to_srgb(np.clip(image[..., :3], 0, 1)))
+    prepared, folder = tmp_path / "prepared", tmp_path / "fit"
+    prepare_image("case", tmp_path / "blurred.png", prepared, config_settings("prepare", working_resolution=64, scale="frame"))
+    common = dict(variant="llvm_ad_rgb", threads=2, full_effects=False, log=LOG, sample_seed=0)
+    jobs.geometry_job(str(prepared), str(folder / "geometry"), TINY["geometry"], **common)
+    jobs.material_job(str(prepared), str(folder / "geometry"), str(folder / "material"), TINY["material"], **common)
+    tilt, psnr = {}, {}
+    for mixing in ("hard", "mixed"):
+        settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6,
+                                   colour_model="dye_layout", layout_mixing=mixing)
+        out = folder / f"normals_{mixing}"
+        jobs.normals_job(str(prepared), str(folder / "material"), str(out), settings, **common)
+        state = json.loads((out / "state.json").read_text())
+        assert_all_finite(state, out)
+        assert state["colour_model"]["mixing"] == mixing
+        across = read_exr(out / "normal.exr")[..., 0].mean(axis=0)  # tilt across the stripes, the noise averaged out
+        tilt[mixing] = float(np.sqrt(np.mean(across**2)))
+        psnr[mixing] = state["psnr_db"]
+    assert psnr["mixed"] > psnr["hard"] + 0.3  # the mixed edges re-render the photo better ...
+    assert tilt["mixed"] < 0.95 * tilt["hard"]  # ... and leave less of them to the relief
+
+
 HARD_CASES = {
     "black_cloth": dict(material=Material((0.004, 0.004, 0.005), 0.5, 0.6), light=FitLight(20, 40)),
     "saturated_white": dict(material=Material((0.95, 0.95, 0.95), 1.0, 0.15), light=FitLight(10, 0), gain=1.0),

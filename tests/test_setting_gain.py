@@ -31,7 +31,21 @@ def test_rerun_copies_the_fits_drops_what_the_setting_changes_and_runs_with_the_
     setting_gain.rerun_with(before, after, Path("config/overlays/x.yaml"), ["features/photo"], "sheet.tsv")
     assert (after / "fit/a/normals/state.json").is_file() and (after / "features/truth/a.parquet").is_file()
     assert not (after / "features/photo").exists() and not (after / "stale").exists()
-    assert calls == [["--configfile", "config/config.yaml", "config/overlays/x.yaml", "--config", "results=run_p", "samples=sheet.tsv"]]
+    assert calls == [["--configfile", "config/config.yaml", "config/overlays/x.yaml", "--rerun-triggers", "mtime",
+                      "--config", "results=run_p", "samples=sheet.tsv"]]
+
+
+def test_a_drop_pattern_removes_every_match_and_nothing_else(tmp_path, monkeypatch):
+    before, after = tmp_path / "run", tmp_path / "run_p"
+    for path in ("prepared/a/status.json", "fit/a/normals/state.json", "fit/a/material/state.json",
+                 "fit/b/normals/state.json", "features/fitted/a.parquet"):
+        (before / path).parent.mkdir(parents=True, exist_ok=True)
+        (before / path).write_text("x", encoding="utf-8")
+    monkeypatch.setattr(setting_gain, "ROOT", tmp_path)
+    monkeypatch.setattr(setting_gain, "snakemake", lambda args: None)
+    setting_gain.rerun_with(before, after, Path("x.yaml"), ["fit/*/normals"], None)
+    assert not (after / "fit/a/normals").exists() and not (after / "fit/b/normals").exists()
+    assert (after / "fit/a/material/state.json").is_file() and (after / "features/fitted/a.parquet").is_file()
 
 
 def test_pairs_are_scored_set_by_set_and_runs_of_other_images_are_refused(tmp_path):
