@@ -66,3 +66,17 @@ def test_rerun_refuses_a_before_run_without_fits_in_one_line(tmp_path, monkeypat
     with pytest.raises(SystemExit, match="empty:empty_p: empty has no fit, features folder to copy"):
         setting_gain.main()
     assert not (tmp_path / "empty_p").exists()
+
+
+def test_the_fit_changes_count_the_refitted_images_and_the_periods_within_five_percent(tmp_path):
+    for run, psnr, period in (("a", [30.0, 31.0, 20.0], [0.01, 0.2, -1.0]), ("b", [30.0, 32.0, 21.0], [0.01, 0.04, -1.0])):
+        (tmp_path / run / "reports").mkdir(parents=True)
+        (tmp_path / run / "reports" / "fit_accuracy.csv").write_text(
+            "image_id,psnr_db,period_error\n" + "".join(f"i{k},{p},{e}\n" for k, (p, e) in enumerate(zip(psnr, period))),
+            encoding="utf-8")
+    changes = setting_gain.fit_changes(tmp_path / "a", tmp_path / "b")
+    assert changes["images"] == 3 and changes["refitted_differently"] == 2 and changes["periodic"] == 2
+    assert (changes["psnr_before"], changes["psnr_after"]) == (25.5, 26.5)
+    assert (changes["period_within_5pct_before"], changes["period_within_5pct_after"]) == (1, 2)
+    assert setting_gain.fit_changes(tmp_path / "a", tmp_path / "missing") is None
+    assert "| 3 | 2 | 25.50 dB | 26.50 dB | 1/2 | 2/2 |" in "\n".join(setting_gain.fit_lines([changes]))

@@ -4,11 +4,12 @@
     .venv/bin/python workflow/benchmarks/setting_gain.py --rerun OVERLAY --drop features/photo --drop features/fitted \
         BEFORE:AFTER[:SHEET] ... [--name setting_gain]
 
-Each argument pairs two results folders of the same images and fits: BEFORE made without the setting, AFTER
-a copy of it whose workflow reran with the setting's overlay (only the rules the setting reaches rerun; the fits
-are reused). Reads both folders' ``reports/feature_sets.csv`` and the classifier of record's
+Each argument pairs two results folders of the same images: BEFORE made without the setting, AFTER a copy of it
+whose workflow reran with the setting's overlay (only the dropped outputs and the rules the setting reaches rerun;
+the other fits are reused). Reads both folders' ``reports/feature_sets.csv`` and the classifier of record's
 ``reports/fitted/accuracy.json`` and writes the images right before and after, per feature set and summed over
-the pairs, into ``results/bench/<name>.{csv,md}``. Nothing is chosen here.
+the pairs, into ``results/bench/<name>.{csv,md}``; where both runs have ``reports/fit_accuracy.csv``, the text also
+says what the setting changed in the fits (re-render PSNR, fitted period). Nothing is chosen here.
 
 With ``--rerun OVERLAY``, each AFTER folder is first made here: BEFORE's ``prepared``, ``fit`` and ``features``
 copied in, the ``--drop`` paths or glob patterns under it removed (the outputs the setting changes), then the workflow run on it with
@@ -26,6 +27,8 @@ from harness import ROOT, change_lines, publish, shown, snakemake
 
 #: The folders of BEFORE that ``--rerun`` copies into AFTER.
 COPIED = ("prepared", "fit", "features")
+#: A fitted thread period within this relative error of the truth is counted right (as the accuracy report does).
+PERIOD_TOLERANCE = 0.05
 #: The row that holds the classifier of record (its figures come from ``reports/fitted/accuracy.json``).
 RECORD = "classifier of record"
 
@@ -46,6 +49,38 @@ def pair_rows(before: Path, after: Path) -> pd.DataFrame:
         raise SystemExit(f"{shown(before)} and {shown(after)} scored different images: pair runs of the same images")
     return pd.DataFrame({"run": shown(after), "feature_set": joined["feature_set"], "before": joined["correct_before"],
                          "after": joined["correct_after"], "n": joined["n_before"]})
+
+
+def fit_changes(before: Path, after: Path) -> dict | None:
+    """What the setting changed in the fits, from both runs' ``reports/fit_accuracy.csv`` (None without them): the
+    images whose re-render PSNR moved, their median PSNR before and after, and the fitted periods within 5%."""
+    paths = [run / "reports" / "fit_accuracy.csv" for run in (before, after)]
+    if not all(path.is_file() for path in paths):
+        return None
+    old, new = (pd.read_csv(path).set_index("image_id") for path in paths)
+    both = old.join(new, lsuffix="_before", rsuffix="_after", how="inner")
+    moved = both[(both["psnr_db_before"] - both["psnr_db_after"]).abs() > 1e-9]
+    periodic = both[both["period_error_before"] >= 0]  # -1: no period to measure (pile)
+    return {"run": shown(after), "images": len(both), "refitted_differently": len(moved),
+            "psnr_before": float(moved["psnr_db_before"].median()) if len(moved) else float("nan"),
+            "psnr_after": float(moved["psnr_db_after"].median()) if len(moved) else float("nan"),
+            "periodic": len(periodic), "period_within_5pct_before": int((periodic["period_error_before"] <= PERIOD_TOLERANCE).sum()),
+            "period_within_5pct_after": int((periodic["period_error_after"] <= PERIOD_TOLERANCE).sum())}
+
+
+def fit_lines(changes: list[dict]) -> list[str]:
+    """A markdown table of :func:`fit_changes` rows (empty without any)."""
+    if not changes:
+        return []
+    lines = ["", "What the setting changed in the fits (`reports/fit_accuracy.csv`): the images whose re-render PSNR moved, "
+             "their median PSNR, and the fitted thread periods within 5% of the truth:", "",
+             "| run | images | PSNR moved | their median PSNR, before | after | period within 5%, before | after |",
+             "|---|---|---|---|---|---|---|"]
+    for c in changes:
+        psnr = [f"{c[key]:.2f} dB" if c["refitted_differently"] else "-" for key in ("psnr_before", "psnr_after")]
+        lines.append(f"| `{c['run']}` | {c['images']} | {c['refitted_differently']} | {psnr[0]} | {psnr[1]} | "
+                     f"{c['period_within_5pct_before']}/{c['periodic']} | {c['period_within_5pct_after']}/{c['periodic']} |")
+    return lines
 
 
 def rerun_with(before: Path, after: Path, overlay: Path, drop: list[str], sheet: str | None) -> None:
@@ -71,11 +106,12 @@ def rerun_problem(before: str, after: str) -> str | None:
     return None if (ROOT / after).resolve().is_relative_to(ROOT) else f"{after} is outside the repository"
 
 
-def markdown(table: pd.DataFrame) -> str:
-    """Per run and feature set, then summed over the runs: images right before and after, and the change."""
-    lines = ["LOOCV images right without (before) and with (after) the setting, same images and fits; feature sets "
+def markdown(table: pd.DataFrame, changes: list[dict]) -> str:
+    """Per run and feature set, then summed over the runs: images right before and after, and the change; then what
+    the setting changed in the fits (:func:`fit_lines`)."""
+    lines = ["LOOCV images right without (before) and with (after) the setting, same images; feature sets "
              "as the `feature_sets` rule scores them, the classifier of record as the `classify` rule does.", "",
-             *change_lines(table, "before", "after")]
+             *change_lines(table, "before", "after"), *fit_lines(changes)]
     return "\n".join(lines) + "\n"
 
 
@@ -99,7 +135,8 @@ def main() -> None:
         for before, after, *sheet in pairs:
             rerun_with(ROOT / before, ROOT / after, args.rerun, args.drop, sheet[0] if sheet else None)
     table = pd.concat([pair_rows(ROOT / before, ROOT / after) for before, after, *_ in pairs], ignore_index=True)
-    publish(args.out, args.name, table, markdown(table))
+    changes = [c for before, after, *_ in pairs if (c := fit_changes(ROOT / before, ROOT / after))]
+    publish(args.out, args.name, table, markdown(table, changes))
 
 
 if __name__ == "__main__":
