@@ -58,7 +58,7 @@ def fit_changes(before: Path, after: Path) -> dict | None:
     if not all(path.is_file() for path in paths):
         return None
     old, new = (pd.read_csv(path).set_index("image_id") for path in paths)
-    both = old.join(new, lsuffix="_before", rsuffix="_after", how="inner")
+    both = old.merge(new, left_index=True, right_index=True, suffixes=("_before", "_after"))
     moved = both[(both["psnr_db_before"] - both["psnr_db_after"]).abs() > 1e-9]
     periodic = both[both["period_error_before"] >= 0]  # -1: no period to measure (pile)
     return {"run": shown(after), "images": len(both), "refitted_differently": len(moved),
