@@ -183,8 +183,10 @@ def test_a_model_recorded_before_a_key_takes_its_legacy_value_else_the_schema_de
     model = load_model(photo_model)
     recorded = model.metadata["metadata"]["settings"]
     del recorded["prepare"]["scale"], recorded["fit"]["normals"]["colour_model"], recorded["features"]["n_peaks"]
+    del recorded["fit"]["normals"]["layout_mixing"]
     settings = training_settings(model)
     assert settings["prepare"]["scale"] == "frame" and settings["fit"]["normals"]["colour_model"] == "one_colour"
+    assert settings["fit"]["normals"]["layout_mixing"] == "hard"
     assert settings["features"]["n_peaks"] == schema_defaults()["features"]["n_peaks"]
 
 

@@ -60,7 +60,8 @@ def model_sources(model: VotingModel) -> list[str]:
 
 
 #: What models recorded before a key existed were processed with, where it differs from the schema default.
-LEGACY = {"prepare": {"scale": "frame"}, "fit": {"normals": {"colour_model": "one_colour"}}, "features": {"fitted_field": "relief", "period_source": "field"}}
+LEGACY = {"prepare": {"scale": "frame"}, "fit": {"normals": {"colour_model": "one_colour", "layout_mixing": "hard"}},
+          "features": {"fitted_field": "relief", "period_source": "field"}}
 
 
 def model_physics_table(model: VotingModel, folder: str | os.PathLike[str],

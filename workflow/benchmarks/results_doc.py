@@ -840,6 +840,23 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "2026-12-04 (both rerun on this day's machine)", ("bench/class_subsets_record_1204.md",),
                         f"{py}/class_subsets.py --design results --holdout results/holdout_1178/run --record-only "
                         "--name class_subsets_record_1204"),
+        BenchmarkReport("The mixed dye layout (`fit.normals.layout_mixing: mixed`), screening on the three weaves of 1163, "
+                        "2026-12-04", ("bench/layout_mixed_1163.md",),
+                        f"{py}/setting_gain.py --rerun config/overlays/layout_mixed.yaml --drop 'fit/*/normals' "
+                        "results/weaves_1163/run:results/weaves_1163/run_mixed:results/weaves_1163/field/samples.tsv "
+                        "--name layout_mixed_1163 (the overlay, `fit: {normals: {layout_mixing: mixed}}`, was removed when "
+                        "`mixed` became the default; the runs before were made with what `config/overlays/layout_hard.yaml` gives)"),
+        BenchmarkReport("The mixed dye layout, confirmation on the fresh three weaves of 1205, 2026-12-04",
+                        ("bench/layout_mixed_1205.md",),
+                        f"{py}/setting_gain.py --rerun config/overlays/layout_mixed.yaml --drop 'fit/*/normals' "
+                        "results/weaves_1205/run:results/weaves_1205/run_mixed:results/weaves_1205/field/samples.tsv "
+                        "--name layout_mixed_1205 (after the commands of `config/overlays/weaves_1205.yaml`)"),
+        BenchmarkReport("The mixed dye layout, confirmation on the embedded design run and held-out 1178, 2026-12-04",
+                        ("bench/layout_mixed_clean.md",),
+                        f"{py}/setting_gain.py --rerun config/overlays/layout_mixed.yaml --drop 'fit/*/normals' "
+                        "results/design:results/design_mixed results/holdout_1178/run:results/holdout_1178/run_mixed:"
+                        "results/holdout_1178/holdout/samples.tsv --name layout_mixed_clean (`results/design` holds a copy of "
+                        "the default run's prepared, fit, features and reports folders)"),
         BenchmarkReport("Invariance of predictions, refitted, LBP at the field's pixels (the default until the "
                         "twenty-third session)", ("bench/invariance_pixels/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --scores-only "
