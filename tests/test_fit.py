@@ -132,20 +132,27 @@ def test_shade_texture_takes_the_holes_of_an_open_weave_and_stays_in_range(tmp_p
     assert set(shade_features(None, StructureSettings(0.1, 10.0, 0.3, "pixels")).values()) == {0.0}
 
 
-@pytest.mark.slow
-def test_a_striped_flat_cloth_keeps_its_stripes_in_the_colour_and_out_of_the_relief(tmp_path, mi):
-    """colour_model auto: a photo of two dyes gets the dye layout; it re-renders the photo and tilts the flat cloth's normals less."""
+def render_stripes(mi, path: Path, blur: float = 0.0) -> None:
+    """A flat cloth of navy and ecru stripes 8 px wide along the columns, their edges mixed over ``blur`` texels, to ``path``."""
+    from scipy import ndimage
+
     from clothscope.fit.model import shaded_texture
 
     camera, material = FitCamera(), Material((0.5, 0.5, 0.5), 0.3, 0.7)
     fit = FitScene(camera, FitLight(15, 30), plane_grid(camera, 32, 0.06), 0.06, material)
     columns = np.arange(64)
     stripes = np.where((columns // 8) % 2 == 1, np.array([[1.3], [1.2], [0.9]]), np.array([[0.3], [0.4], [1.0]])).T
-    layout = np.broadcast_to(stripes[None, :, :], (64, 64, 3))  # navy and ecru stripes along the columns
-    albedo = shaded_texture(material, np.ones((64, 64)), layout)
-    scene = build_scene(mi, fit, 64, {"type": "direct"}, "independent", albedo_texture=albedo)
-    image = np.array(mi.render(scene, spp=32, seed=1))[..., :3]
-    write_png(tmp_path / "striped.png", linear_to_srgb(np.clip(image, 0, 1)))
+    if blur > 0:
+        stripes = ndimage.gaussian_filter1d(stripes, blur, axis=0, mode="wrap")
+    albedo = shaded_texture(material, np.ones((64, 64)), np.broadcast_to(stripes[None, :, :], (64, 64, 3)))
+    image = np.array(mi.render(build_scene(mi, fit, 64, {"type": "direct"}, "independent", albedo_texture=albedo), spp=32, seed=1))
+    write_png(path, linear_to_srgb(np.clip(image[..., :3], 0, 1)))
+
+
+@pytest.mark.slow
+def test_a_striped_flat_cloth_keeps_its_stripes_in_the_colour_and_out_of_the_relief(tmp_path, mi):
+    """colour_model auto: a photo of two dyes gets the dye layout; it re-renders the photo and tilts the flat cloth's normals less."""
+    render_stripes(mi, tmp_path / "striped.png")
     tilt, psnr = {}, {}
     for model in ("auto", "one_colour"):
         settings = config_settings("fit.normals", resolution=64, spp=2, texture=64, iterations=12, joint_iterations=6, colour_model=model)
@@ -165,18 +172,7 @@ def test_a_striped_flat_cloth_keeps_its_stripes_in_the_colour_and_out_of_the_rel
 @pytest.mark.slow
 def test_a_blurred_dye_edge_is_colour_in_the_mixed_layout_not_tilt(tmp_path, mi):
     """layout_mixing mixed: where defocus mixed two dyes, the layout takes the mixture and the flat cloth stays flatter."""
-    from scipy import ndimage
-
-    from clothscope.fit.model import shaded_texture
-
-    camera, material = FitCamera(), Material((0.5, 0.5, 0.5), 0.3, 0.7)
-    fit = FitScene(camera, FitLight(15, 30), plane_grid(camera, 32, 0.06), 0.06, material)
-    columns = np.arange(64)
-    stripes = np.where((columns // 8) % 2 == 1, np.array([[1.3], [1.2], [0.9]]), np.array([[0.3], [0.4], [1.0]])).T
-    blurred = ndimage.gaussian_filter1d(stripes, 2.0, axis=0, mode="wrap")  # the stripes' edges, mixed over a few texels
-    albedo = shaded_texture(material, np.ones((64, 64)), np.broadcast_to(blurred[None, :, :], (64, 64, 3)))
-    image = np.array(mi.render(build_scene(mi, fit, 64, {"type": "direct"}, "independent", albedo_texture=albedo), spp=32, seed=1))
-    write_png(tmp_path / "blurred.png", linear_to_srgb(np.clip(image[..., :3], 0, 1)))
+    render_stripes(mi, tmp_path / "blurred.png", blur=2.0)
     prepared, folder = tmp_path / "prepared", tmp_path / "fit"
     prepare_image("case", tmp_path / "blurred.png", prepared, config_settings("prepare", working_resolution=64, scale="frame"))
     common = dict(variant="llvm_ad_rgb", threads=2, full_effects=False, log=LOG, sample_seed=0)

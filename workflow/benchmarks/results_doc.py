@@ -55,6 +55,9 @@ class BenchmarkReport:
     command: str
 
 
+#: How the mixed dye layout's runs were made: the BEFORE runs with the hard layout of then, the AFTER with mixed.
+MIXED_LAYOUT_NOTE = ("(measured on 2026-12-04 with `--rerun` of an overlay giving `fit: {normals: {layout_mixing: mixed}}`, "
+                     "the default since; each BEFORE run made with what `config/overlays/layout_hard.yaml` gives)")
 #: The five sets refeatured with ``features.period_source: auto`` (label, folder under results/, sheet folder).
 PERIOD_AUTO_SETS = (("three weaves 1144", "weaves_1144", "photos"), ("three weaves 1145", "weaves_1145", "photos"),
                     ("microscope-like weaves 1148", "microscope_1148", "photos"),
@@ -148,6 +151,14 @@ def workflow_runs(results: Path) -> list[Run]:
                    f"--config samples={r}/{folder}/{images}/samples.tsv results={r}/{folder}/run")
         return Run(label, results / folder / "run", results / folder / images / "samples.tsv", command)
 
+    def mixed_layout_run(label: str, folder: str, images: str) -> Run:
+        """``results/<folder>/run`` (made with the hard dye layout, the default of then) with its normal maps refitted
+        with ``fit.normals.layout_mixing: mixed`` into ``results/<folder>/run_mixed``, its other fits reused."""
+        command = (f".venv/bin/python workflow/benchmarks/setting_gain.py --rerun config/config.yaml --drop 'fit/*/normals' "
+                   f"{r}/{folder}/run:{r}/{folder}/run_mixed:{r}/{folder}/{images}/samples.tsv (`run` made with "
+                   "config/overlays/layout_hard.yaml)")
+        return Run(label, results / folder / "run_mixed", results / folder / images / "samples.tsv", command)
+
     def fitted_field_run(label: str, folder: str, run: str = "run_axes") -> Run:
         """A field set rendered by ``config/overlays/<folder>.yaml`` (whose ``run`` holds only the photo's features)
         run whole, fits included, with the defaults of its day into ``results/<folder>/<run>``."""
@@ -206,6 +217,10 @@ def workflow_runs(results: Path) -> list[Run]:
         fitted_field_run("microscope-like weaves 1173, fitted", "microscope_1173", "run"),
         fitted_field_run("microscope-like weaves 1174, fitted", "microscope_1174", "run"),
         fitted_field_run("microscope-like weaves 1177, fitted", "microscope_1177", "run"),
+        fitted_field_run("three weaves 1205, fitted (hard dye layout)", "weaves_1205", "run"),
+        mixed_layout_run("held-out 1178, mixed dye layout", "holdout_1178", "holdout"),
+        mixed_layout_run("three weaves 1163, mixed dye layout", "weaves_1163", "field"),
+        mixed_layout_run("three weaves 1205, mixed dye layout", "weaves_1205", "field"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
     ]
@@ -842,21 +857,20 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "--name class_subsets_record_1204"),
         BenchmarkReport("The mixed dye layout (`fit.normals.layout_mixing: mixed`), screening on the three weaves of 1163, "
                         "2026-12-04", ("bench/layout_mixed_1163.md",),
-                        f"{py}/setting_gain.py --rerun config/overlays/layout_mixed.yaml --drop 'fit/*/normals' "
+                        f"{py}/setting_gain.py --rerun config/config.yaml --drop 'fit/*/normals' "
                         "results/weaves_1163/run:results/weaves_1163/run_mixed:results/weaves_1163/field/samples.tsv "
-                        "--name layout_mixed_1163 (the overlay, `fit: {normals: {layout_mixing: mixed}}`, was removed when "
-                        "`mixed` became the default; the runs before were made with what `config/overlays/layout_hard.yaml` gives)"),
+                        f"--name layout_mixed_1163 {MIXED_LAYOUT_NOTE}"),
         BenchmarkReport("The mixed dye layout, confirmation on the fresh three weaves of 1205, 2026-12-04",
                         ("bench/layout_mixed_1205.md",),
-                        f"{py}/setting_gain.py --rerun config/overlays/layout_mixed.yaml --drop 'fit/*/normals' "
+                        f"{py}/setting_gain.py --rerun config/config.yaml --drop 'fit/*/normals' "
                         "results/weaves_1205/run:results/weaves_1205/run_mixed:results/weaves_1205/field/samples.tsv "
-                        "--name layout_mixed_1205 (after the commands of `config/overlays/weaves_1205.yaml`)"),
+                        f"--name layout_mixed_1205 {MIXED_LAYOUT_NOTE} (after the commands of `config/overlays/weaves_1205.yaml`)"),
         BenchmarkReport("The mixed dye layout, confirmation on the embedded design run and held-out 1178, 2026-12-04",
                         ("bench/layout_mixed_clean.md",),
-                        f"{py}/setting_gain.py --rerun config/overlays/layout_mixed.yaml --drop 'fit/*/normals' "
+                        f"{py}/setting_gain.py --rerun config/config.yaml --drop 'fit/*/normals' "
                         "results/design:results/design_mixed results/holdout_1178/run:results/holdout_1178/run_mixed:"
-                        "results/holdout_1178/holdout/samples.tsv --name layout_mixed_clean (`results/design` holds a copy of "
-                        "the default run's prepared, fit, features and reports folders)"),
+                        f"results/holdout_1178/holdout/samples.tsv --name layout_mixed_clean {MIXED_LAYOUT_NOTE} (`results/design` "
+                        "held a copy of the default run's prepared, fit, features and reports folders)"),
         BenchmarkReport("Invariance of predictions, refitted, LBP at the field's pixels (the default until the "
                         "twenty-third session)", ("bench/invariance_pixels/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --scores-only "
