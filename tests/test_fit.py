@@ -145,7 +145,8 @@ def render_stripes(mi, path: Path, blur: float = 0.0) -> None:
     if blur > 0:
         stripes = ndimage.gaussian_filter1d(stripes, blur, axis=0, mode="wrap")
     albedo = shaded_texture(material, np.ones((64, 64)), np.broadcast_to(stripes[None, :, :], (64, 64, 3)))
-    image = np.array(mi.render(build_scene(mi, fit, 64, {"type": "direct"}, "independent", albedo_texture=albedo), spp=32, seed=1))
+    scene = build_scene(mi, fit, 64, {"type": "direct"}, "independent", albedo_texture=albedo)
+    image = np.array(mi.render(scene, spp=32, seed=1))
     write_png(path, linear_to_srgb(np.clip(image[..., :3], 0, 1)))
 
 

@@ -12,8 +12,9 @@ the pairs, into ``results/bench/<name>.{csv,md}``; where both runs have ``report
 says what the setting changed in the fits (re-render PSNR, fitted period). Nothing is chosen here.
 
 With ``--rerun OVERLAY``, each AFTER folder is first made here: BEFORE's ``prepared``, ``fit`` and ``features``
-copied in, the ``--drop`` paths or glob patterns under it removed (the outputs the setting changes), then the workflow run on it with
-``config/config.yaml`` and OVERLAY (and ``samples=SHEET`` where the pair names one). An existing AFTER is replaced.
+copied in, the ``--drop`` paths or glob patterns under it removed (the outputs the setting changes), then the workflow
+run on it with ``config/config.yaml`` and OVERLAY (and ``samples=SHEET`` where the pair names one). An existing AFTER
+is replaced.
 """
 from __future__ import annotations
 
@@ -64,8 +65,9 @@ def fit_changes(before: Path, after: Path) -> dict | None:
     return {"run": shown(after), "images": len(both), "refitted_differently": len(moved),
             "psnr_before": float(moved["psnr_db_before"].median()) if len(moved) else float("nan"),
             "psnr_after": float(moved["psnr_db_after"].median()) if len(moved) else float("nan"),
-            "periodic": len(periodic), "period_within_5pct_before": int((periodic["period_error_before"] <= PERIOD_TOLERANCE).sum()),
-            "period_within_5pct_after": int((periodic["period_error_after"] <= PERIOD_TOLERANCE).sum())}
+            "periodic": len(periodic),
+            **{f"period_within_5pct_{side}": int((periodic[f"period_error_{side}"] <= PERIOD_TOLERANCE).sum())
+               for side in ("before", "after")}}
 
 
 def fit_lines(changes: list[dict]) -> list[str]:
@@ -120,7 +122,8 @@ def main() -> None:
     parser.add_argument("pairs", nargs="+", help="BEFORE:AFTER results folders (paths under the repository root), "
                         "with --rerun also BEFORE:AFTER:SHEET (the sample sheet of a run not made from config/samples.tsv)")
     parser.add_argument("--rerun", type=Path, help="config overlay: make each AFTER from BEFORE with it first")
-    parser.add_argument("--drop", action="append", default=[], help="with --rerun: a path or glob pattern under AFTER removed before the run "
+    parser.add_argument("--drop", action="append", default=[],
+                        help="with --rerun: a path or glob pattern under AFTER removed before the run "
                         "(for example 'fit/*/normals'; repeat for more)")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     parser.add_argument("--name", default="setting_gain")

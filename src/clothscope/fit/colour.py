@@ -44,7 +44,7 @@ from clothscope.prepare.shading import chromaticity, dye_groups
 COLOUR_MODELS = ("auto", "one_colour", "dye_layout")
 #: values of ``fit.normals.layout_mixing``: each pixel its group's mean colour, or the mixture of the means that matches it
 LAYOUT_MIXINGS = ("hard", "mixed")
-#: ``auto``: linear luminance below which a pixel's chromaticity is mostly noise (8-bit sRGB codes below about 18)
+#: ``auto`` and ``mixed``: linear luminance below which a pixel's chromaticity is mostly noise (8-bit sRGB codes below about 18)
 DARK_LUMINANCE = 0.005
 #: ``auto``: two groups are two dyes when the chromaticity density between them dips to this fraction of the lower peak
 VALLEY_FRACTION = 0.7
@@ -132,6 +132,12 @@ def dye_colours(means: np.ndarray) -> np.ndarray:
     return dyes
 
 
+def check_mixing(mixing: str) -> None:
+    """Raise a ``ValueError`` unless ``mixing`` is one of :data:`LAYOUT_MIXINGS`."""
+    if mixing not in LAYOUT_MIXINGS:
+        raise ValueError(f"layout_mixing must be one of {', '.join(LAYOUT_MIXINGS)}, got {mixing!r}")
+
+
 def layout_texture(photo: np.ndarray, groups: np.ndarray, texture: int, margin: float,
                    mixing: str) -> tuple[np.ndarray, tuple[float, ...]]:
     """(T, T, 3) texture of each texel's dye colour over the photo's mean colour, and the groups' area shares.
@@ -140,8 +146,7 @@ def layout_texture(photo: np.ndarray, groups: np.ndarray, texture: int, margin: 
     ``mixed``, the mixture of the dyes' mean colours (:func:`dye_colours`) that matches the pixel
     (:func:`mixed_colours`), except for pixels darker than :data:`DARK_LUMINANCE`, which keep their group's mean.
     """
-    if mixing not in LAYOUT_MIXINGS:
-        raise ValueError(f"layout_mixing must be one of {', '.join(LAYOUT_MIXINGS)}, got {mixing!r}")
+    check_mixing(mixing)
     count = int(groups.max()) + 1
     shares = np.array([np.mean(groups == g) for g in range(count)])
     means = np.array([photo[groups == g].mean(axis=0) if shares[g] > 0 else np.zeros(3) for g in range(count)])
@@ -199,8 +204,7 @@ def choose_colour_model(kind: str, photo: np.ndarray, texture: int, margin: floa
     ValueError
         When ``kind`` is not one of :data:`COLOUR_MODELS`, or ``mixing`` not one of :data:`LAYOUT_MIXINGS`.
     """
-    if mixing not in LAYOUT_MIXINGS:
-        raise ValueError(f"layout_mixing must be one of {', '.join(LAYOUT_MIXINGS)}, got {mixing!r}")
+    check_mixing(mixing)
     if kind not in COLOUR_MODELS:
         raise ValueError(f"colour_model must be one of {', '.join(COLOUR_MODELS)}, got {kind!r}")
     if kind == "one_colour":
