@@ -871,6 +871,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "results/design:results/design_mixed results/holdout_1178/run:results/holdout_1178/run_mixed:"
                         f"results/holdout_1178/holdout/samples.tsv --name layout_mixed_clean {MIXED_LAYOUT_NOTE} (`results/design` "
                         "held a copy of the default run's prepared, fit, features and reports folders)"),
+        BenchmarkReport("The paper's class subsets: the classifier of record with the mixed dye layout, the default run and "
+                        "held-out 1178, 2026-12-04", ("bench/class_subsets_record_1204_mixed.md",),
+                        f"{py}/class_subsets.py --design results --holdout results/holdout_1178/run_mixed --record-only "
+                        "--name class_subsets_record_1204_mixed"),
         BenchmarkReport("Invariance of predictions, refitted, LBP at the field's pixels (the default until the "
                         "twenty-third session)", ("bench/invariance_pixels/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --scores-only "
@@ -888,6 +892,11 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/invariance_1204/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --out results/bench/invariance_1204 "
                         "(every transformed photo prepared and fitted from scratch, after a fresh clone's default run)"),
+        BenchmarkReport("Invariance of predictions, refitted with the mixed dye layout, 2026-12-04",
+                        ("bench/invariance_1204_mixed/invariance_fitted.md",),
+                        f"{py}/invariance_fitted.py --images all --out results/bench/invariance_1204_mixed "
+                        "(every transformed photo prepared and fitted from scratch, after the default run; other runs "
+                        "shared the two cores)"),
         BenchmarkReport("The invariance benchmark's own noise: every photo refitted as it is, with other render samples",
                         ("bench/invariance_noise_1203/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --transforms refit --overlay config/overlays/fit_seed_1.yaml "
