@@ -90,13 +90,12 @@ def mixture_weights(colours: np.ndarray, basis: np.ndarray) -> np.ndarray:
     best = np.zeros((len(colours), len(basis)))
     for k in range(1, len(basis) + 1):
         for subset in combinations(range(len(basis)), k):
-            rows = list(subset)
-            weights = np.linalg.lstsq(basis[rows].T, colours.T, rcond=None)[0].T  # (N, k)
-            residual = np.sum((colours - weights @ basis[rows]) ** 2, axis=1)
+            weights = np.zeros_like(best)
+            weights[:, subset] = np.linalg.lstsq(basis[list(subset)].T, colours.T, rcond=None)[0].T
+            residual = np.sum((colours - weights @ basis) ** 2, axis=1)
             better = np.all(weights >= 0, axis=1) & (residual < best_residual - 1e-15)
             best_residual[better] = residual[better]
-            best[np.ix_(better, rows)] = weights[better]
-            best[np.ix_(better, [g for g in range(len(basis)) if g not in subset])] = 0.0
+            best[better] = weights[better]
     return best
 
 
