@@ -631,6 +631,23 @@ def test_smoothness_prior_lowers_the_fitted_relief_curvature(tmp_path):
     assert curvatures[0.01] < 0.5 * curvatures[0.0]
 
 
+def test_repeat_prior_makes_the_fitted_relief_repeat_with_the_photo(tmp_path):
+    """repeat_weight > 0: state.json records the photo's translations, and the same tiny fit ends with a height map
+    that differs less from itself one repeat away (the prior's own measure), finite everywhere."""
+    from clothscope.fit.repeat import repeat_penalty_np, shifted_samples
+
+    fits = {weight: tiny_relief_fit(tmp_path / str(weight), repeat_weight=weight) for weight in (0.0, 1.0)}
+    record = fits[1.0][0]["repeat_prior"]
+    assert record["weight"] == 1.0 and 1 <= len(record["repeats"]) <= 2 and fits[0.0][0]["repeat_prior"]["weight"] == 0.0
+    texels_per_pixel = fits[1.0][0]["texels_per_pixel"]
+    samples = [shifted_samples(64, tuple(v * texels_per_pixel for v in r["shift_px"]), r["correlation"]) for r in record["repeats"]]
+    penalty = {}
+    for weight, (_, folder) in fits.items():
+        height = read_exr(folder / "height.exr")[..., 0]
+        penalty[weight] = repeat_penalty_np(height - height.mean(), samples) / max(float(np.var(height)), 1e-12)
+    assert penalty[1.0] < 0.7 * penalty[0.0]
+
+
 def test_a_light_near_the_camera_fits_with_the_near_camera_prior(tmp_path):
     """Under the rule (every fitted light counts as near at 90 degrees) the fit is the one configured smoothness gives."""
     ruled, ruled_dir = tiny_relief_fit(tmp_path / "rule", near_camera_deg=90.0, near_camera_smoothness=0.01)

@@ -875,6 +875,16 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "held-out 1178, 2026-12-04", ("bench/class_subsets_record_1204_mixed.md",),
                         f"{py}/class_subsets.py --design results --holdout results/holdout_1178/run_mixed --record-only "
                         "--name class_subsets_record_1204_mixed"),
+        BenchmarkReport("Does the relief repeat where the photo repeats? The default run, the three weaves of 1163, and "
+                        "1163 with the repeat prior, 2026-12-05", ("bench/repeat_correlation.md",),
+                        f"{py}/repeat_correlation.py results:config/samples.tsv "
+                        "results/weaves_1163/run_mixed:results/weaves_1163/field/samples.tsv "
+                        "results/weaves_1163/run_repeat:results/weaves_1163/field/samples.tsv --name repeat_correlation"),
+        BenchmarkReport("The repeat prior (`fit.normals.repeat_weight` 0.03), screening on the three weaves of 1163, "
+                        "2026-12-05 (rejected)", ("bench/repeat_prior_1163.md",),
+                        f"{py}/setting_gain.py --rerun config/overlays/repeat_prior.yaml --drop 'fit/*/normals' "
+                        "results/weaves_1163/run_mixed:results/weaves_1163/run_repeat:results/weaves_1163/field/samples.tsv "
+                        "--name repeat_prior_1163"),
         BenchmarkReport("Invariance of predictions, refitted, LBP at the field's pixels (the default until the "
                         "twenty-third session)", ("bench/invariance_pixels/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --prefer photo_structure_brdf --scores-only "

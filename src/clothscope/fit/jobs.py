@@ -26,6 +26,7 @@ from clothscope.fit.geometry import GeometrySettings, fit_geometry
 from clothscope.fit.material import MaterialSettings, fit_material_and_light
 from clothscope.fit.model import PREVIEW_SAMPLER, FitScene, build_scene, shaded_texture, soft_light_map
 from clothscope.fit.normals import NormalSettings, fit_normals, height_to_normals_np, relief_prior
+from clothscope.fit.repeat import repeat_samples
 from clothscope.fit.outputs import (
     ALBEDO_FILE,
     COMPARISON_FILE,
@@ -146,8 +147,11 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
         log.info("colour model: %s", colour.as_record())
         fitted_with, prior = relief_prior(settings, fit.light)
         log.info("relief prior: %s", prior["reason"])
-        height, fit.material, loops, shade = fit_normals(mi, fit, at_resolution(photo, settings.resolution), plan, fitted_with,
-                                                         log, colour, sample_seed)
+        target = at_resolution(photo, settings.resolution)
+        repeats, repeat_record = repeat_samples(target.image, settings.texture, fit.margin)
+        repeat_record = {"weight": float(settings.repeat_weight)} | repeat_record
+        log.info("repeat prior: weight %g, %s", settings.repeat_weight, repeat_record["reason"])
+        height, fit.material, loops, shade = fit_normals(mi, fit, target, plan, fitted_with, log, colour, sample_seed, repeats)
         normals = height_to_normals_np(height).astype(np.float32)
         write_exr(tmp / NORMAL_FILE, normals)
         write_exr(tmp / HEIGHT_FILE, np.repeat(height[..., None], 3, axis=2).astype(np.float32))
@@ -158,7 +162,7 @@ def normals_job(prepared_dir: str, material_dir: str, out_dir: str, settings: No
         record = {"effects": [plan.as_record()], "warnings": [w for loop in loops for w in loop.warnings],
                   "stopped": [loop.stopped for loop in loops], "final_loss": min(loop.best_loss for loop in loops),
                   "settings": settings.__dict__, "sample_seed": sample_seed, "material": fit.material.as_dict(), "texels_per_pixel": texels_per_pixel,
-                  "colour_model": colour.as_record(), "relief_prior": prior}
+                  "colour_model": colour.as_record(), "relief_prior": prior, "repeat_prior": repeat_record}
         write_json(tmp / MATERIAL_FILE, {"material": fit.material.as_dict(), "effects": [plan.as_record()],
                                            "refined_jointly_with_normal_map": True, "texels_per_pixel": texels_per_pixel,
                                            "colour_model": colour.as_record()})

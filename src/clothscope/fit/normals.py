@@ -90,6 +90,7 @@ from clothscope.fit.model import (
     shaded_texture,
     texel_centres,
 )
+from clothscope.fit.repeat import ShiftedSamples, on_device, repeat_penalty
 from clothscope.fit.target import Target, image_loss
 from clothscope.prepare.shading import shading
 
@@ -122,6 +123,7 @@ class NormalSettings:
     initial_slope: float  # RMS slope of the shading start (tangent of the tilt)
     seed_cycle: int  # > 0: iterations cycle through this many seeds and the renders reuse their intersections
     cavity: float  # > 0: the base colour is darkened where the height lies below its ring mean (see cavity_factor)
+    repeat_weight: float  # > 0: weight of the prior that the height map repeats where the photo does (clothscope.fit.repeat)
 
 
 #: Logistic latent of a shade of 1 (the shade texture's start and prior centre); s0 = sigmoid(SHADE_LATENT0).
@@ -262,11 +264,14 @@ def stage_integrator(plan: Plan, seed_cycle: int) -> dict[str, Any]:
 
 
 def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, settings: NormalSettings,
-                log: logging.Logger, colour: ColourModel | None, sample_seed: int) -> tuple[np.ndarray, Material, list[Any], np.ndarray | None]:
+                log: logging.Logger, colour: ColourModel | None, sample_seed: int,
+                repeats: list[ShiftedSamples] | None = None) -> tuple[np.ndarray, Material, list[Any], np.ndarray | None]:
     """Fit the height map (and shade), then with the BSDF jointly; returns height, material, loop results, shade.
 
     ``colour``: the base colour's model (:mod:`.colour`); its layout texture must be ``settings.texture`` texels wide.
-    ``sample_seed`` is the config's ``fit.sample_seed`` (which render samples the steps draw).
+    ``sample_seed`` is the config's ``fit.sample_seed`` (which render samples the steps draw). ``repeats``: the
+    photo's translations as gathers of the ``settings.texture`` map (:func:`clothscope.fit.repeat.repeat_samples`),
+    weighted by ``settings.repeat_weight`` in the loss; None or [] for no repeat prior.
     """
     size = settings.texture
     shaded = settings.albedo_weight > 0
@@ -283,6 +288,7 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
     fixed = material_latents(fit.material, settings.min_roughness)
     fixed_arrays = {k: mi.Float(v) for k, v in fixed.items()}  # device copies made once, used while the BSDF is held
     steps = HeightSteps(size, settings.large_steps_lambda) if settings.large_steps_lambda > 0 else None
+    repeat_gathers = on_device(mi, repeats or []) if settings.repeat_weight > 0 else []
 
     def loss_fn(opt, render_seed):
         height = height_of(steps, opt["height"])
@@ -298,6 +304,8 @@ def fit_normals(mi: ModuleType, fit: FitScene, target: Target, plan: Plan, setti
             loss = loss + settings.smoothness * dr.mean(dr.square(curvature(mi, height, neighbours)))
         if shaded:
             loss = loss + settings.albedo_weight * dr.mean(dr.abs(shade_of(mi, opt["shade"]) - 1.0))
+        if repeat_gathers:
+            loss = loss + settings.repeat_weight * repeat_penalty(mi, height, repeat_gathers)
         return loss
 
     start = (initial_height(target.image, size, fit.margin, settings.initial_slope) if settings.initial_relief == "shading"
