@@ -59,6 +59,10 @@ gaps between yarns are darker than crowns because they see less of the light
 render at first order in the height, under any light, instead of only through
 the tilt. The factor is returned in the shade (``shade.exr``, ``albedo.exr``).
 
+With ``repeat_weight > 0`` the loss adds that weight times the mean squared
+difference between the height map and itself one repeat of the photo away
+(:mod:`.repeat`): where the photo repeats, the relief is asked to repeat too.
+
 With the ``dye_layout`` colour model (:mod:`.colour`) the base colour is also
 a texture: the fitted colour times the photo's fixed dye layout (times the
 shade, when there is one), written as ``albedo.exr`` too.
