@@ -26,7 +26,6 @@ from clothscope.fit.geometry import GeometrySettings, fit_geometry
 from clothscope.fit.material import MaterialSettings, fit_material_and_light
 from clothscope.fit.model import PREVIEW_SAMPLER, FitScene, build_scene, shaded_texture, soft_light_map
 from clothscope.fit.normals import NormalSettings, fit_normals, height_to_normals_np, relief_prior
-from clothscope.fit.repeat import repeat_samples
 from clothscope.fit.outputs import (
     ALBEDO_FILE,
     COMPARISON_FILE,
@@ -46,6 +45,7 @@ from clothscope.fit.outputs import (
     write_comparison,
     write_loss_curve,
 )
+from clothscope.fit.repeat import repeat_samples
 from clothscope.fit.target import SkipStage, Target, at_resolution, load_prepared, psnr, unexplained_share
 
 PREVIEW_SPP = 35  # a 5 x 7 multijitter grid (asked for 32, the sampler drew 35)
