@@ -16,7 +16,7 @@ from PIL import Image
 
 from clothscope.core.atomic import atomic_dir, write_json
 from clothscope.core.config import settings as config_settings
-from clothscope.core.imageio import ImageRejected, header_size, linear_to_srgb, srgb_to_linear, write_exr
+from clothscope.core.imageio import ImageRejected, header_size, linear_to_srgb, read_exr, srgb_to_linear, write_exr
 from clothscope.core.schema import InputError
 from clothscope.features.structure import StructureSettings
 from clothscope.prepare.image import prepare_image, prepare_memory_mb, to_working_resolution
@@ -415,6 +415,21 @@ def test_thread_scale_keeps_the_frame_when_threads_are_coarse_or_absent(tmp_path
     Image.fromarray(weave_photo(128, 4.0)).save(tmp_path / "tiny.png")
     tiny = prepare_image("tiny", tmp_path / "tiny.png", tmp_path / "tiny", settings, LATTICE)["scale"]
     assert tiny["crop_px"] == 128 and "photograph closer" in tiny["note"]  # never upsampled
+
+
+def test_fine_threads_are_magnified_into_the_band_up_to_max_upsample(tmp_path):
+    Image.fromarray(weave_photo(256, 7.5)).save(tmp_path / "fine.png")
+    twice = config_settings("prepare", working_resolution=256, scale="threads", max_upsample=2.0)
+    fine = prepare_image("fine", tmp_path / "fine.png", tmp_path / "fine", twice, LATTICE)
+    scale = fine["scale"]
+    assert scale["crop_px"] < 256 and scale["native_px_per_working_px"] < 1.0
+    assert scale["working_period_px"] == pytest.approx(11.3, rel=0.06) and "note" not in scale
+    image = read_exr(tmp_path / "fine" / "image.exr")
+    assert image.shape[:2] == (256, 256) and np.isfinite(image).all() and image.min() >= 0.0
+    Image.fromarray(weave_photo(256, 4.0)).save(tmp_path / "finer.png")
+    finer = prepare_image("finer", tmp_path / "finer.png", tmp_path / "finer", twice, LATTICE)["scale"]
+    assert finer["crop_px"] == 128  # at most twice: still below the band
+    assert "magnified 2 times: photograph closer" in finer["note"]
 
 
 def test_thread_scale_needs_the_peak_test_and_a_valid_band(tmp_path):

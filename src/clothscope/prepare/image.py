@@ -10,8 +10,9 @@ measured on the photo at its native resolution (:func:`native_period`), by
 default on its shading with the yarn colours divided out. When
 downscaling the whole frame would put it below ``period_band[0]`` working
 pixels, only a centred square is kept, sized so that the period lands at the
-band's geometric centre (never upsampling). The status record says what was
-found and chosen (``scale``), so a thread count per original pixel is known.
+band's geometric centre; threads finer than the band even at native resolution
+are magnified, up to ``max_upsample`` times (1: never). The status record says
+what was found and chosen (``scale``), so a thread count per original pixel is known.
 """
 from __future__ import annotations
 
@@ -83,6 +84,7 @@ class PrepareSettings:
     max_clipped_fraction: float
     scale: str  # "threads": crop so the thread period lands in period_band (needs a lattice test)
     period_band: tuple[float, float]  # wanted thread period, working pixels
+    max_upsample: float  # the most a thread crop may be magnified (1: never smaller than the working image)
     period_window: int  # side of the native-resolution centre square the period is measured on
     period_field: str  # what the period is measured on: "shading" (yarn colours divided out) or "luminance"
     period_peak: str  # which lattice peak gives the period, one of PERIOD_PEAKS
@@ -301,7 +303,8 @@ def thread_crop(source_side: int, period: float | None, settings: PrepareSetting
 
     The whole frame is kept unless its downscaled thread period would fall
     below ``period_band[0]``; then the crop puts it at the band's geometric
-    centre, but never smaller than the working resolution (no upsampling).
+    centre, but never smaller than ``working_resolution / max_upsample`` (with
+    ``max_upsample`` 1, no upsampling).
     """
     size = settings.working_resolution
     low, high = settings.period_band
@@ -311,11 +314,13 @@ def thread_crop(source_side: int, period: float | None, settings: PrepareSetting
         record["note"] = "no thread lattice found at native resolution: the whole frame is used"
     else:
         if period * size / source_side < low:
-            crop = int(np.clip(round(size * period / np.sqrt(low * high)), size, source_side))
+            smallest = min(int(np.ceil(size / settings.max_upsample)), source_side)
+            crop = int(np.clip(round(size * period / np.sqrt(low * high)), smallest, source_side))
         working = period * size / crop
         if working < low:
-            record["note"] = (f"threads are {working:.1f} px at the working resolution, below {low:g} px, even at full "
-                              "native resolution: photograph closer")
+            magnified = f" magnified {size / crop:.2g} times" if crop < size else " at full native resolution"
+            record["note"] = (f"threads are {working:.1f} px at the working resolution, below {low:g} px, even{magnified}: "
+                              "photograph closer")
         elif working > high:
             record["note"] = f"threads are {working:.1f} px at the working resolution, above {high:g} px: few threads in view"
         record["working_period_px"] = working
