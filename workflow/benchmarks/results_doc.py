@@ -167,6 +167,15 @@ def workflow_runs(results: Path) -> list[Run]:
                    f"results={r}/{folder}/{run}")
         return Run(label, results / folder / run, results / folder / "field" / "samples.tsv", command)
 
+    def real_run(label: str, half: str, run: str = "run", overlay: str | None = None) -> Run:
+        """Half ``a`` or ``b`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``, with the
+        defaults or with ``config/overlays/<overlay>.yaml``."""
+        overlay_files = f" --configfile config/config.yaml config/overlays/{overlay}.yaml" if overlay else ""
+        command = (f".venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images --out {r}/real && "
+                   f".venv/bin/snakemake --cores 2{overlay_files} --config samples={r}/real/{half}/samples.tsv "
+                   f"results={r}/real/{half}/{run}")
+        return Run(label, results / "real" / half / run, results / "real" / half / "samples.tsv", command)
+
     return [
         Run("design", results, default_sheet, design),
         Run("held-out", results / "holdout" / "run", results / "holdout" / "samples.tsv", holdout),
@@ -223,6 +232,10 @@ def workflow_runs(results: Path) -> list[Run]:
         mixed_layout_run("three weaves 1205, mixed dye layout", "weaves_1205", "field"),
         *(period_auto_run(f"{label}, period auto", folder, images) for label, folder, images in PERIOD_AUTO_SETS),
         Run("colour texture", results / "exp_albedo", default_sheet, albedo),
+        real_run("real photos, design half", "a"),
+        real_run("real photos, design half, magnified up to 2x", "a", "run_up2", "upsample_2"),
+        real_run("real photos, confirmation half", "b"),
+        real_run("real photos, confirmation half, magnified up to 2x", "b", "run_up2", "upsample_2"),
     ]
 
 

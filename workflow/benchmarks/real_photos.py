@@ -1,0 +1,101 @@
+"""Benchmark set: real photos of cloth, split into a design half and a confirmation half.
+
+The project's own sets are synthetic. This script builds two sample sheets of real photos from a local copy of a
+public collection of fabric photos labelled by material, ``github.com/biancajayy/FabricClassification`` at commit
+``85eb65094e39682e7187e513072e4510372dc80d`` (folder ``Images/<Class>/``: cotton, denim, linen, polyester; product
+and stock close-ups, 183-2667 px on the short side). The collection states no licence, so no photo is committed here:
+clone it yourself and pass its ``Images`` folder.
+
+Per class, in file-name order, exact duplicates (same bytes) and photos under ``--min-side`` px on the short side are
+dropped; the rest are shuffled with one seeded generator (classes in name order) and the first ``--per-class`` go to
+half ``a`` (design: settings may be chosen on it), the next ``--per-class`` to half ``b`` (confirmation: scored only
+under a rule written beforehand). Each half's photos are copied to ``<out>/<half>/photos/<class>/`` and its sheet
+written to ``<out>/<half>/samples.tsv``. Run the workflow on a half with
+
+    .venv/bin/snakemake --cores 2 --config samples=results/real/a/samples.tsv results=results/real/a/run
+
+    .venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images [--out results/real]
+        [--per-class 12] [--min-side 300] [--seed 20261207]
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import random
+import shutil
+from pathlib import Path
+
+from PIL import Image
+
+from clothscope.core.atomic import write_text
+from clothscope.core.samples import is_sample_file, sheet_from_folder, sheet_to_tsv
+
+HALVES = ("a", "b")
+
+
+def usable_photos(folder: Path, min_side: int) -> list[Path]:
+    """The photos of one class folder in name order, without exact duplicates and those under ``min_side`` px."""
+    seen: set[str] = set()
+    kept = []
+    for photo in sorted(p for p in folder.iterdir() if is_sample_file(p)):
+        digest = hashlib.md5(photo.read_bytes()).hexdigest()
+        if digest in seen:
+            continue
+        seen.add(digest)
+        with Image.open(photo) as image:
+            if min(image.size) >= min_side:
+                kept.append(photo)
+    return kept
+
+
+def split_halves(source: Path, per_class: int, min_side: int, seed: int) -> dict[str, dict[str, list[Path]]]:
+    """Half -> class -> photos: each class's usable photos shuffled, the first ``per_class`` to ``a``, the next to ``b``."""
+    rng = random.Random(seed)
+    halves: dict[str, dict[str, list[Path]]] = {half: {} for half in HALVES}
+    for folder in sorted((p for p in source.iterdir() if p.is_dir()), key=lambda p: p.name.lower()):
+        photos = usable_photos(folder, min_side)
+        rng.shuffle(photos)
+        if len(photos) < 2 * per_class:
+            raise ValueError(f"{folder}: {len(photos)} usable photos, fewer than the {2 * per_class} two halves need")
+        for index, half in enumerate(HALVES):
+            halves[half][folder.name.lower()] = photos[index * per_class : (index + 1) * per_class]
+    if not halves["a"]:
+        raise ValueError(f"{source}: no class folders")
+    return halves
+
+
+def write_half(photos: dict[str, list[Path]], folder: Path) -> Path:
+    """Copy a half's photos to ``folder/photos/<class>/`` and write its sample sheet; return the sheet's path."""
+    for fabric_class, files in photos.items():
+        target = folder / "photos" / fabric_class
+        target.mkdir(parents=True, exist_ok=True)
+        for photo in files:
+            shutil.copy2(photo, target / photo.name)
+    sheet = folder / "samples.tsv"
+    write_text(sheet, sheet_to_tsv(sheet_from_folder(folder / "photos")))
+    return sheet
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--source", type=Path, required=True, help="the collection's Images folder (<Class>/<photo>)")
+    parser.add_argument("--out", type=Path, default=Path("results/real"))
+    parser.add_argument("--per-class", type=int, default=12)
+    parser.add_argument("--min-side", type=int, default=300)
+    parser.add_argument("--seed", type=int, default=20261207)
+    args = parser.parse_args()
+    if not args.source.is_dir():
+        parser.error(f"{args.source}: not a folder")
+    try:
+        halves = split_halves(args.source, args.per_class, args.min_side, args.seed)
+    except ValueError as error:
+        parser.error(str(error))
+    for half, photos in halves.items():
+        if (args.out / half).exists():
+            parser.error(f"{args.out / half}: exists; remove it or pass another --out")
+        sheet = write_half(photos, args.out / half)
+        print(f"{half}: {sum(len(files) for files in photos.values())} photos -> {sheet}")
+
+
+if __name__ == "__main__":
+    main()
