@@ -107,6 +107,15 @@ def test_crop_resize_and_clipped_mask():
     assert mask[0, 0] and mask.sum() == 1
 
 
+def test_a_magnified_clipped_mask_marks_only_the_pixels_under_a_clipped_one():
+    rgb = np.full((64, 64, 3), 0.2, np.float32)
+    clipped = np.zeros((64, 64), bool)
+    clipped[10, 20] = clipped[40, 41] = True
+    out, mask = to_working_resolution(rgb, clipped, 256)
+    assert np.allclose(out, 0.2, atol=1e-5)
+    assert mask.sum() == 2 * 16 and mask[40:44, 80:84].all() and mask[160:164, 164:168].all()
+
+
 def test_saturated_pixels_are_marked(tmp_path):
     rgb = gradient_rgb()
     rgb[:20, :20] = 255

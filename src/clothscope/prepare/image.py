@@ -345,9 +345,9 @@ def centre_square(array: np.ndarray) -> np.ndarray:
     return array[top : top + side, left : left + side]
 
 
-def resize_channel(channel: np.ndarray, size: int) -> np.ndarray:
-    """Area-average (down) or bicubic (up) resize of one float channel to size x size."""
-    method = Image.Resampling.BOX if channel.shape[0] >= size else Image.Resampling.BICUBIC
+def resize_channel(channel: np.ndarray, size: int, upsample: Image.Resampling = Image.Resampling.BICUBIC) -> np.ndarray:
+    """Area-average (down) or ``upsample`` (default bicubic) resize of one float channel to size x size."""
+    method = Image.Resampling.BOX if channel.shape[0] >= size else upsample
     resized = Image.fromarray(np.ascontiguousarray(channel, dtype=np.float32), mode="F").resize((size, size), method)
     return np.asarray(resized, dtype=np.float32)
 
@@ -361,21 +361,24 @@ def centred(array: np.ndarray, side: int | None) -> np.ndarray:
     return square[top : top + side, top : top + side]
 
 
-def resized_square(array: np.ndarray, size: int, crop: int | None = None) -> np.ndarray:
-    """The centred ``crop`` square (default the largest) of an (H, W) or (H, W, C) array, each channel resized to ``size``."""
+def resized_square(array: np.ndarray, size: int, crop: int | None = None,
+                   upsample: Image.Resampling = Image.Resampling.BICUBIC) -> np.ndarray:
+    """The centred ``crop`` square (default the largest) of an (H, W) or (H, W, C) array, each channel resized to ``size``
+    (``upsample``: the filter when that magnifies)."""
     square = centred(array, crop)
     if square.ndim == 2:
-        return resize_channel(square, size)
-    return np.stack([resize_channel(square[..., c], size) for c in range(square.shape[-1])], axis=-1)
+        return resize_channel(square, size, upsample)
+    return np.stack([resize_channel(square[..., c], size, upsample) for c in range(square.shape[-1])], axis=-1)
 
 
 def to_working_resolution(rgb: np.ndarray, clipped: np.ndarray, size: int, crop: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Centre-crop (to ``crop`` px, default the largest square) and resize linear RGB and the clipped mask to ``size``.
 
-    A working pixel is clipped when any source pixel under it was clipped.
+    A working pixel is clipped when any source pixel under it was clipped. The mask is resized by area in both
+    directions: a bicubic magnification would spread each clipped pixel onto its unclipped neighbours.
     """
     out = resized_square(rgb[..., :3], size, crop)
-    mask = resized_square(clipped.astype(np.float32), size, crop) > 1e-6
+    mask = resized_square(clipped.astype(np.float32), size, crop, upsample=Image.Resampling.BOX) > 1e-6
     return np.clip(out, 0.0, None), mask
 
 
