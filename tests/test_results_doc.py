@@ -94,3 +94,10 @@ def test_a_run_not_on_this_machine_keeps_its_earlier_rule_table(tmp_path):
     assert "### gone\n\nSource: `x/**/*.tsv` (3 files).\n\n| rule | jobs |\n|---|---|\n| `prepare` | 3 |" in section
     assert "### never\n\nnot measured: run `make never`" in section
     assert "make gone" not in section
+
+
+def test_photos_without_ground_truth_have_no_fit_accuracy_column_or_command(tmp_path):
+    real = results_doc.Run("real", tmp_path / "real", tmp_path / "s.tsv", "make real", truth=False)
+    synthetic = results_doc.Run("synthetic", tmp_path / "synthetic", tmp_path / "s.tsv", "make synthetic")
+    section = results_doc.fit_accuracy_section([real, synthetic])
+    assert "not measured: run `make synthetic`" in section and "make real" not in section

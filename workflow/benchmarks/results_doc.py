@@ -44,6 +44,7 @@ class Run:
     folder: Path
     sheet: Path
     command: str
+    truth: bool = True  # False for photos without ground truth (no fit-accuracy report)
 
 
 @dataclass(frozen=True)
@@ -174,7 +175,7 @@ def workflow_runs(results: Path) -> list[Run]:
         command = (f".venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images --out {r}/real && "
                    f".venv/bin/snakemake --cores 2{overlay_files} --config samples={r}/real/{half}/samples.tsv "
                    f"results={r}/real/{half}/{run}")
-        return Run(label, results / "real" / half / run, results / "real" / half / "samples.tsv", command)
+        return Run(label, results / "real" / half / run, results / "real" / half / "samples.tsv", command, truth=False)
 
     return [
         Run("design", results, default_sheet, design),
@@ -406,6 +407,7 @@ def fit_accuracy_section(runs: list[Run], earlier: str = "") -> str:
     keys: list[tuple[str, ...]] = []
     columns: dict[str, dict[tuple[str, ...], str]] = {}
     entries, counts, measured, here = [], [], [], []
+    runs = [run for run in runs if run.truth]
     for run in runs:
         path = run.folder / "reports" / "fit_accuracy.md"
         if path.exists():
