@@ -51,5 +51,14 @@ def test_a_half_is_copied_with_a_sheet_of_its_classes(collection, tmp_path):
 
 
 def test_too_few_usable_photos_is_one_clear_error(collection):
-    with pytest.raises(ValueError, match="Cotton: 6 usable photos, fewer than the 8"):
+    with pytest.raises(ValueError, match="Cotton: 6 usable photos, fewer than the 8 2 sets need"):
         real_photos.split_halves(collection, per_class=4, min_side=30, seed=7)
+
+
+def test_a_third_set_takes_the_next_photos_and_leaves_the_halves_as_they_were(collection):
+    halves = real_photos.split_halves(collection, per_class=2, min_side=30, seed=7)
+    three = real_photos.split_halves(collection, per_class=2, min_side=30, seed=7, names=("a", "b", "c"))
+    assert {name: three[name] for name in ("a", "b")} == halves
+    for fabric_class in ("cotton", "denim"):
+        assert len(three["c"][fabric_class]) == 2
+        assert not set(three["c"][fabric_class]) & set(halves["a"][fabric_class] + halves["b"][fabric_class])

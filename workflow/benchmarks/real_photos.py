@@ -9,13 +9,14 @@ clone it yourself and pass its ``Images`` folder.
 Per class, in file-name order, exact duplicates (same bytes) and photos under ``--min-side`` px on the short side are
 dropped; the rest are shuffled with one seeded generator (classes in name order) and the first ``--per-class`` go to
 half ``a`` (design: settings may be chosen on it), the next ``--per-class`` to half ``b`` (confirmation: scored only
-under a rule written beforehand). Each half's photos are copied to ``<out>/<half>/photos/<class>/`` and its sheet
-written to ``<out>/<half>/samples.tsv``. Run the workflow on a half with
+under a rule written beforehand), and so on for each name of ``--sets`` (``a b c`` adds a third set, ``c``; ``a`` and
+``b`` stay the same). Each set's photos are copied to ``<out>/<set>/photos/<class>/`` and its sheet written to
+``<out>/<set>/samples.tsv``; a set whose folder exists is left as it is. Run the workflow on a set with
 
     .venv/bin/snakemake --cores 2 --config samples=results/real/a/samples.tsv results=results/real/a/run
 
     .venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images [--out results/real]
-        [--per-class 12] [--min-side 300] [--seed 20261207]
+        [--sets a b] [--per-class 12] [--min-side 300] [--seed 20261207]
 """
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ from PIL import Image
 from clothscope.core.atomic import write_text
 from clothscope.core.samples import is_sample_file, sheet_from_folder, sheet_to_tsv
 
-HALVES = ("a", "b")
+HALVES = ("a", "b")  # the design and confirmation halves; --sets may name more
 
 
 def usable_photos(folder: Path, min_side: int) -> list[Path]:
@@ -48,18 +49,21 @@ def usable_photos(folder: Path, min_side: int) -> list[Path]:
     return kept
 
 
-def split_halves(source: Path, per_class: int, min_side: int, seed: int) -> dict[str, dict[str, list[Path]]]:
-    """Half -> class -> photos: each class's usable photos shuffled, the first ``per_class`` to ``a``, the next to ``b``."""
+def split_halves(source: Path, per_class: int, min_side: int, seed: int,
+                 names: tuple[str, ...] = HALVES) -> dict[str, dict[str, list[Path]]]:
+    """Set -> class -> photos: each class's usable photos shuffled, the first ``per_class`` to ``names[0]``, the next
+    ``per_class`` to ``names[1]``, and so on."""
     rng = random.Random(seed)
-    halves: dict[str, dict[str, list[Path]]] = {half: {} for half in HALVES}
+    halves: dict[str, dict[str, list[Path]]] = {name: {} for name in names}
     for folder in sorted((p for p in source.iterdir() if p.is_dir()), key=lambda p: p.name.lower()):
         photos = usable_photos(folder, min_side)
         rng.shuffle(photos)
-        if len(photos) < 2 * per_class:
-            raise ValueError(f"{folder}: {len(photos)} usable photos, fewer than the {2 * per_class} two halves need")
-        for index, half in enumerate(HALVES):
-            halves[half][folder.name.lower()] = photos[index * per_class : (index + 1) * per_class]
-    if not halves["a"]:
+        if len(photos) < len(names) * per_class:
+            raise ValueError(f"{folder}: {len(photos)} usable photos, fewer than the {len(names) * per_class} "
+                             f"{len(names)} sets need")
+        for index, name in enumerate(names):
+            halves[name][folder.name.lower()] = photos[index * per_class : (index + 1) * per_class]
+    if not halves[names[0]]:
         raise ValueError(f"{source}: no class folders")
     return halves
 
@@ -80,19 +84,23 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--source", type=Path, required=True, help="the collection's Images folder (<Class>/<photo>)")
     parser.add_argument("--out", type=Path, default=Path("results/real"))
+    parser.add_argument("--sets", nargs="+", default=list(HALVES), help="names of the sets, in order (a b: the halves)")
     parser.add_argument("--per-class", type=int, default=12)
     parser.add_argument("--min-side", type=int, default=300)
     parser.add_argument("--seed", type=int, default=20261207)
     args = parser.parse_args()
     if not args.source.is_dir():
         parser.error(f"{args.source}: not a folder")
+    if len(set(args.sets)) != len(args.sets) or any(not name.isidentifier() for name in args.sets):
+        parser.error(f"--sets: distinct plain names wanted, got {' '.join(args.sets)}")
     try:
-        halves = split_halves(args.source, args.per_class, args.min_side, args.seed)
+        halves = split_halves(args.source, args.per_class, args.min_side, args.seed, tuple(args.sets))
     except ValueError as error:
         parser.error(str(error))
     for half, photos in halves.items():
         if (args.out / half).exists():
-            parser.error(f"{args.out / half}: exists; remove it or pass another --out")
+            print(f"{half}: {args.out / half} exists, left as it is")
+            continue
         sheet = write_half(photos, args.out / half)
         print(f"{half}: {sum(len(files) for files in photos.values())} photos -> {sheet}")
 
