@@ -169,10 +169,11 @@ def workflow_runs(results: Path) -> list[Run]:
         return Run(label, results / folder / run, results / folder / "field" / "samples.tsv", command)
 
     def real_run(label: str, half: str, run: str = "run", overlay: str | None = None) -> Run:
-        """Half ``a`` or ``b`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``, with the
-        defaults or with ``config/overlays/<overlay>.yaml``."""
+        """Set ``a``, ``b`` or ``c`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``, with
+        the defaults or with ``config/overlays/<overlay>.yaml``."""
         overlay_files = f" --configfile config/config.yaml config/overlays/{overlay}.yaml" if overlay else ""
-        command = (f".venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images --out {r}/real && "
+        command = (f".venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images --out {r}/real "
+                   "--sets a b c && "
                    f".venv/bin/snakemake --cores 2{overlay_files} --config samples={r}/real/{half}/samples.tsv "
                    f"results={r}/real/{half}/{run}")
         return Run(label, results / "real" / half / run, results / "real" / half / "samples.tsv", command, truth=False)
@@ -237,6 +238,7 @@ def workflow_runs(results: Path) -> list[Run]:
         real_run("real photos, design half, magnified up to 2x", "a", "run_up2", "upsample_2"),
         real_run("real photos, confirmation half", "b"),
         real_run("real photos, confirmation half, magnified up to 2x", "b", "run_up2", "upsample_2"),
+        real_run("real photos, third set", "c"),
     ]
 
 
@@ -782,6 +784,20 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                                       ("1175", "holdout_1175", "held-out 1175"))
           for spoiled, option, spoiled_label in (("", "", ""), ("_spoiled", " --fitted-of-others 1",
                                                                   ", each image given another's fitted features"))),
+        BenchmarkReport("Pruning on real photos: screening on halves A and B, 2026-12-07",
+                        ("bench/prune_real_screen.md",),
+                        f"{py}/record_candidates.py results/real/a/run results/real/b/run --prune 0.05 0.2 "
+                        "--name prune_real_screen"),
+        BenchmarkReport("Pruning on real photos: confirmation on the fresh set C, 2026-12-07",
+                        ("bench/prune_real_c.md",),
+                        f"{py}/record_candidates.py results/real/c/run --prune 0.05 --name prune_real_c"),
+        BenchmarkReport("Pruning on real photos: confirmation on the fresh set C, each image given another's fitted "
+                        "features, 2026-12-07", ("bench/prune_real_c_spoiled.md",),
+                        f"{py}/record_candidates.py results/real/c/run --prune 0.05 --fitted-of-others 1 "
+                        "--name prune_real_c_spoiled"),
+        BenchmarkReport("Pruning on real photos: confirmation on the embedded design run, 2026-12-07",
+                        ("bench/prune_design_1207.md",),
+                        f"{py}/record_candidates.py results --prune 0.05 --name prune_design_1207"),
         BenchmarkReport("What the fit cannot explain, as a fitted column: screening on the design set",
                         ("bench/fit_residual_screen.md",), f"{py}/fit_residual.py results --name fit_residual_screen"),
         BenchmarkReport("What the fit cannot explain, as a fitted column: fresh held-out 1176 and microscope-like 1177",
