@@ -33,31 +33,31 @@ def collection(tmp_path) -> Path:
 
 
 def test_halves_are_disjoint_deduplicated_large_enough_and_reproducible(collection):
-    halves = real_photos.split_halves(collection, per_class=3, min_side=30, seed=7)
+    halves = real_photos.split_sets(collection, per_class=3, min_side=30, seed=7)
     assert list(halves["a"]) == ["cotton", "denim"]
     for fabric_class in ("cotton", "denim"):
         a, b = halves["a"][fabric_class], halves["b"][fabric_class]
         assert len(a) == len(b) == 3 and not set(a) & set(b)
         assert all("00099" not in p.name and "00100" not in p.name for p in a + b)
-    assert real_photos.split_halves(collection, per_class=3, min_side=30, seed=7) == halves
-    assert real_photos.split_halves(collection, per_class=3, min_side=30, seed=8) != halves
+    assert real_photos.split_sets(collection, per_class=3, min_side=30, seed=7) == halves
+    assert real_photos.split_sets(collection, per_class=3, min_side=30, seed=8) != halves
 
 
 def test_a_half_is_copied_with_a_sheet_of_its_classes(collection, tmp_path):
-    halves = real_photos.split_halves(collection, per_class=2, min_side=30, seed=7)
-    sheet = pd.read_csv(real_photos.write_half(halves["b"], tmp_path / "out" / "b"), sep="\t", dtype=str)
+    halves = real_photos.split_sets(collection, per_class=2, min_side=30, seed=7)
+    sheet = pd.read_csv(real_photos.write_set(halves["b"], tmp_path / "out" / "b"), sep="\t", dtype=str)
     assert sorted(sheet["fabric_class"]) == ["cotton", "cotton", "denim", "denim"]
     assert all(Path(path).is_file() and "/out/b/photos/" in path for path in sheet["path"])
 
 
 def test_too_few_usable_photos_is_one_clear_error(collection):
     with pytest.raises(ValueError, match="Cotton: 6 usable photos, fewer than the 8 2 sets need"):
-        real_photos.split_halves(collection, per_class=4, min_side=30, seed=7)
+        real_photos.split_sets(collection, per_class=4, min_side=30, seed=7)
 
 
 def test_a_third_set_takes_the_next_photos_and_leaves_the_halves_as_they_were(collection):
-    halves = real_photos.split_halves(collection, per_class=2, min_side=30, seed=7)
-    three = real_photos.split_halves(collection, per_class=2, min_side=30, seed=7, names=("a", "b", "c"))
+    halves = real_photos.split_sets(collection, per_class=2, min_side=30, seed=7)
+    three = real_photos.split_sets(collection, per_class=2, min_side=30, seed=7, names=("a", "b", "c"))
     assert {name: three[name] for name in ("a", "b")} == halves
     for fabric_class in ("cotton", "denim"):
         assert len(three["c"][fabric_class]) == 2

@@ -1,4 +1,4 @@
-"""Benchmark set: real photos of cloth, split into a design half and a confirmation half.
+"""Benchmark set: real photos of cloth, split into a design half, a confirmation half and optional further sets.
 
 The project's own sets are synthetic. This script builds two sample sheets of real photos from a local copy of a
 public collection of fabric photos labelled by material, ``github.com/biancajayy/FabricClassification`` at commit
@@ -49,12 +49,12 @@ def usable_photos(folder: Path, min_side: int) -> list[Path]:
     return kept
 
 
-def split_halves(source: Path, per_class: int, min_side: int, seed: int,
+def split_sets(source: Path, per_class: int, min_side: int, seed: int,
                  names: tuple[str, ...] = HALVES) -> dict[str, dict[str, list[Path]]]:
     """Set -> class -> photos: each class's usable photos shuffled, the first ``per_class`` to ``names[0]``, the next
     ``per_class`` to ``names[1]``, and so on."""
     rng = random.Random(seed)
-    halves: dict[str, dict[str, list[Path]]] = {name: {} for name in names}
+    sets: dict[str, dict[str, list[Path]]] = {name: {} for name in names}
     for folder in sorted((p for p in source.iterdir() if p.is_dir()), key=lambda p: p.name.lower()):
         photos = usable_photos(folder, min_side)
         rng.shuffle(photos)
@@ -62,14 +62,14 @@ def split_halves(source: Path, per_class: int, min_side: int, seed: int,
             raise ValueError(f"{folder}: {len(photos)} usable photos, fewer than the {len(names) * per_class} "
                              f"{len(names)} sets need")
         for index, name in enumerate(names):
-            halves[name][folder.name.lower()] = photos[index * per_class : (index + 1) * per_class]
-    if not halves[names[0]]:
+            sets[name][folder.name.lower()] = photos[index * per_class : (index + 1) * per_class]
+    if not sets[names[0]]:
         raise ValueError(f"{source}: no class folders")
-    return halves
+    return sets
 
 
-def write_half(photos: dict[str, list[Path]], folder: Path) -> Path:
-    """Copy a half's photos to ``folder/photos/<class>/`` and write its sample sheet; return the sheet's path."""
+def write_set(photos: dict[str, list[Path]], folder: Path) -> Path:
+    """Copy a set's photos to ``folder/photos/<class>/`` and write its sample sheet; return the sheet's path."""
     for fabric_class, files in photos.items():
         target = folder / "photos" / fabric_class
         target.mkdir(parents=True, exist_ok=True)
@@ -94,15 +94,15 @@ def main() -> None:
     if len(set(args.sets)) != len(args.sets) or any(not name.isidentifier() for name in args.sets):
         parser.error(f"--sets: distinct plain names wanted, got {' '.join(args.sets)}")
     try:
-        halves = split_halves(args.source, args.per_class, args.min_side, args.seed, tuple(args.sets))
+        sets = split_sets(args.source, args.per_class, args.min_side, args.seed, tuple(args.sets))
     except ValueError as error:
         parser.error(str(error))
-    for half, photos in halves.items():
-        if (args.out / half).exists():
-            print(f"{half}: {args.out / half} exists, left as it is")
+    for name, photos in sets.items():
+        if (args.out / name).exists():
+            print(f"{name}: {args.out / name} exists, left as it is")
             continue
-        sheet = write_half(photos, args.out / half)
-        print(f"{half}: {sum(len(files) for files in photos.values())} photos -> {sheet}")
+        sheet = write_set(photos, args.out / name)
+        print(f"{name}: {sum(len(files) for files in photos.values())} photos -> {sheet}")
 
 
 if __name__ == "__main__":
