@@ -1,7 +1,8 @@
 """Benchmark: the classifier of record with and without the photo's own column sets among its candidates.
 
     .venv/bin/python workflow/benchmarks/record_candidates.py RUN [RUN ...] [--name record_candidates]
-        [--ensemble K ... | --criterion NAME ... | --prefer SET ... | --vote | --prune A ... [--fitted-of-others SEED]]
+        [--ensemble K ... | --criterion NAME ... | --prefer SET ... | --vote | --prune A ... [--fitted-of-others SEED]
+         | --add-photo GROUP ...]
 
 For each run folder, the fitted and photo feature tables are joined as the ``classify`` rule joins
 them, and the ``auto`` classifier of record is scored by the same LOOCV (a column set chosen inside
@@ -34,6 +35,11 @@ of its training images; ``docs/design.md``, "Pruning the vote"). ``--fitted-of-o
 the fitted features and tiles of another image (a permutation drawn with SEED, :func:`fitted_of_others`): fitted
 maps that carry no class, the failure pruning is meant to absorb.
 
+``--add-photo GROUP ...`` scores the record as configured (its vote, pruned at ``classify.prune``) with the photo's
+columns of each ``GROUP`` (a :func:`clothscope.classify.feature_sets.group_columns` group, such as ``spectrum``) added
+to its candidates as ``photo_<GROUP>``, one list per group; compare with the run's own record (its ``classify`` rule
+scored the list without them) (``docs/design.md``, "The photo's spectrum rings in the vote").
+
 ``--prefer SET ...`` scores the record with each ``classify.choice.prefer`` (``none``: the best inner
 accuracy; a candidate's name: that set unless the best beats it by the sign test of
 :class:`clothscope.classify.loocv.Choice`, at the config's ``classify.choice.alpha``, or at each level
@@ -50,7 +56,7 @@ import pandas as pd
 from class_subsets import classify_config
 from harness import ROOT, publish, record_inputs, record_loocv, run_tables, shown
 
-from clothscope.classify.feature_sets import JOINED_PROVENANCE, PHOTO_GROUPS
+from clothscope.classify.feature_sets import JOINED_PROVENANCE, PHOTO_GROUPS, source_columns
 from clothscope.classify.loocv import Choice, LoocvResult, choose_columns, inner_folds
 from clothscope.classify.model import predict, train_model
 from clothscope.classify.rows import posterior_column, split_labelled
@@ -203,6 +209,20 @@ def prune_rows(run: Path, levels: list[float], spoil_seed: int | None = None) ->
     return rows
 
 
+def added_photo_rows(run: Path, groups: list[str]) -> list[dict]:
+    """LOOCV of the classifier of record as configured with the photo's columns of each group added to its candidates."""
+    ok, tiles, candidates = record_inputs(*run_tables(run), "auto")
+    settings = classify_config()
+    rows = []
+    for group in groups:
+        added = source_columns(ok.columns, "photo", group)
+        if not added:
+            raise ValueError(f"{shown(run)}: the photo's table has no columns of group {group!r}")
+        result = record_loocv(ok, {**candidates, f"photo_{group}": added}, tiles, settings)
+        rows.append(result_row(shown(run), f"the record with photo_{group} among its candidates", result))
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", help="run folders (each with features/fitted and features/photo)")
@@ -220,6 +240,8 @@ def main() -> None:
                         help="score the record's auto choice against its vote over every candidate (feature_set: vote)")
     parser.add_argument("--prune", type=float, nargs="+", metavar="A",
                         help="score the record's vote with every set and pruned at each of these sign test levels")
+    parser.add_argument("--add-photo", nargs="+", metavar="GROUP",
+                        help="score the record with the photo's columns of each GROUP (such as spectrum) among its candidates")
     parser.add_argument("--fitted-of-others", type=int, metavar="SEED",
                         help="with --prune: give each image the fitted features of another (a permutation drawn with SEED)")
     args = parser.parse_args()
@@ -227,8 +249,9 @@ def main() -> None:
         parser.error("--alpha needs --prefer and levels between 0 and 1")
     if args.ensemble and min(args.ensemble) < 1:
         parser.error("--ensemble sizes must be >= 1")
-    if sum(bool(option) for option in (args.ensemble, args.criterion, args.prefer, args.vote, args.prune)) > 1:
-        parser.error("give one of --ensemble, --criterion, --prefer, --vote and --prune")
+    if sum(bool(option) for option in (args.ensemble, args.criterion, args.prefer, args.vote, args.prune,
+                                         args.add_photo)) > 1:
+        parser.error("give one of --ensemble, --criterion, --prefer, --vote, --prune and --add-photo")
     if args.prune and not all(0.0 < a < 1.0 for a in args.prune):
         parser.error("--prune levels must be between 0 and 1")
     if args.fitted_of_others is not None and not args.prune:
@@ -240,12 +263,15 @@ def main() -> None:
         rows_of = lambda run: criterion_rows(run, list(dict.fromkeys(args.criterion)))  # noqa: E731
     elif args.prune:
         rows_of = lambda run: prune_rows(run, sorted(set(args.prune)), args.fitted_of_others)  # noqa: E731
+    elif args.add_photo:
+        rows_of = lambda run: added_photo_rows(run, list(dict.fromkeys(args.add_photo)))  # noqa: E731
     elif args.prefer:
         rows_of = lambda run: prefer_rows(run, list(dict.fromkeys(args.prefer)), args.alpha)  # noqa: E731
     table = pd.DataFrame([row for run in args.runs for row in rows_of(ROOT / run)])
     how = ("posteriors of the best K candidates averaged in each fold" if args.ensemble
            else "one set chosen inside each fold, or every candidate's posterior averaged" if args.vote
            else "candidates' posteriors averaged, less those plainly beaten in each fold" if args.prune
+           else "as configured, with the photo's columns of each group among its candidates" if args.add_photo
            else "column set chosen inside each fold" + (", by each inner criterion" if args.criterion else "")
            + (", by each preferred set" if args.prefer else ""))
     lines = [f"Classifier of record (LOOCV, {how}), by its candidate list:", "",
