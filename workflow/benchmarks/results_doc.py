@@ -169,11 +169,11 @@ def workflow_runs(results: Path) -> list[Run]:
         return Run(label, results / folder / run, results / folder / "field" / "samples.tsv", command)
 
     def real_run(label: str, half: str, run: str = "run", overlay: str | None = None) -> Run:
-        """Set ``a``, ``b`` or ``c`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``, with
-        the defaults or with ``config/overlays/<overlay>.yaml``."""
+        """Set ``a``, ``b``, ``c`` or ``d`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``,
+        with the defaults or with ``config/overlays/<overlay>.yaml``."""
         overlay_files = f" --configfile config/config.yaml config/overlays/{overlay}.yaml" if overlay else ""
         command = (f".venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images --out {r}/real "
-                   "--sets a b c && "
+                   "--sets a b c d && "
                    f".venv/bin/snakemake --cores 2{overlay_files} --config samples={r}/real/{half}/samples.tsv "
                    f"results={r}/real/{half}/{run}")
         return Run(label, results / "real" / half / run, results / "real" / half / "samples.tsv", command, truth=False)
@@ -215,6 +215,7 @@ def workflow_runs(results: Path) -> list[Run]:
         rendered_run("held-out 1175", "holdout_1175", "holdout"),
         rendered_run("held-out 1176", "holdout_1176", "holdout"),
         rendered_run("held-out 1178", "holdout_1178", "holdout"),
+        rendered_run("held-out 1207", "holdout_1207", "holdout"),
         fitted_field_run("microscope-like weaves 1156, fitted", "microscope_1156"),
         fitted_field_run("three weaves 1157, fitted", "weaves_1157"),
         fitted_field_run("microscope-like weaves 1159, fitted", "microscope_1159", "run_axes_harmonic"),
@@ -239,6 +240,7 @@ def workflow_runs(results: Path) -> list[Run]:
         real_run("real photos, confirmation half", "b"),
         real_run("real photos, confirmation half, magnified up to 2x", "b", "run_up2", "upsample_2"),
         real_run("real photos, third set", "c"),
+        real_run("real photos, fourth set", "d"),
     ]
 
 
@@ -798,6 +800,13 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("Pruning on real photos: confirmation on the embedded design run, 2026-12-07",
                         ("bench/prune_design_1207.md",),
                         f"{py}/record_candidates.py results --prune 0.05 --name prune_design_1207"),
+        *(BenchmarkReport(f"The photo's spectrum rings in the vote: {label}, 2026-12-07", (f"bench/spectrum_vote_{name}.md",),
+                          f"{py}/record_candidates.py {run} --add-photo spectrum --name spectrum_vote_{name}")
+          for name, run, label in (("a", "results/real/a/run", "screening on the real set A"),
+                                   ("b", "results/real/b/run", "screening on the real set B"),
+                                   ("c", "results/real/c/run", "screening on the real set C"),
+                                   ("d", "results/real/d/run", "confirmation on the fresh real set D"),
+                                   ("1207", "results/holdout_1207/run", "confirmation on held-out 1207"))),
         BenchmarkReport("What the fit cannot explain, as a fitted column: screening on the design set",
                         ("bench/fit_residual_screen.md",), f"{py}/fit_residual.py results --name fit_residual_screen"),
         BenchmarkReport("What the fit cannot explain, as a fitted column: fresh held-out 1176 and microscope-like 1177",
@@ -886,6 +895,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "2026-12-04 (both rerun on this day's machine)", ("bench/class_subsets_record_1204.md",),
                         f"{py}/class_subsets.py --design results --holdout results/holdout_1178/run --record-only "
                         "--name class_subsets_record_1204"),
+        BenchmarkReport("The paper's class subsets: the classifier of record, the default run and held-out 1207, 2026-12-07",
+                        ("bench/class_subsets_record_1207.md",),
+                        f"{py}/class_subsets.py --design results --holdout results/holdout_1207/run --record-only "
+                        "--name class_subsets_record_1207"),
         BenchmarkReport("The mixed dye layout (`fit.normals.layout_mixing: mixed`), screening on the three weaves of 1163, "
                         "2026-12-04", ("bench/layout_mixed_1163.md",),
                         f"{py}/setting_gain.py --rerun config/config.yaml --drop 'fit/*/normals' "
