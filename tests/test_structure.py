@@ -498,13 +498,15 @@ def test_joined_table_marks_an_image_unusable_when_any_source_fails():
     row = joined.set_index("image_id").loc["c5"]
     assert row["status"] == "missing" and row["reason"].startswith("photo:")
     assert "fitted.s_prof_1" in joined and "photo.s_prof_1" in joined
-    sets = classifier_candidates("auto", "fitted", joined.columns)
+    sets = classifier_candidates("auto", "fitted", [*joined.columns, f"photo.{SPECTRUM_COLUMNS[0]}"])
     assert set(sets) == {"structure_brdf", "profile_brdf", "paper", "lbp", "texture_brdf", "texture_shade_brdf", "photo_structure", "plus_photo",
-                         "photo_profile", "photo_paper", "photo_lbp", "photo_texture", "photo_structure_brdf"}
+                         "photo_profile", "photo_paper", "photo_lbp", "photo_texture", "photo_spectrum",
+                         "photo_structure_brdf"}
     assert sets["plus_photo"] == sets["structure_brdf"] + sets["photo_structure"]
     assert sets["photo_structure_brdf"] == sets["photo_structure"] + ["fitted.roughness", "fitted.specular_norm"]
     assert all(c.startswith("photo.") for name in ("photo_profile", "photo_paper", "photo_lbp", "photo_texture") for c in sets[name])
     assert sets["photo_texture"] == sets["photo_structure"] + sets["photo_lbp"]
+    assert sets["photo_spectrum"] == [*sets["photo_structure"], f"photo.{SPECTRUM_COLUMNS[0]}"]  # with the spectrum rings
     assert sets["photo_profile"] == [f"photo.s_prof_{k}" for k in range(1, 11) if f"photo.s_prof_{k}" in joined]
     assert "photo_lbp" not in classifier_candidates("auto", "photo", joined.columns)  # a photo classifier has them as its own
     with pytest.raises(ValueError, match="needs sources"):

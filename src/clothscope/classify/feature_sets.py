@@ -41,8 +41,10 @@ JOINED_GROUPS = (*AUTO_GROUPS, "spectrum")
 #: Group names that stand for all of :data:`AUTO_GROUPS`: ``auto`` chooses one inside each fold, ``vote`` averages them.
 CANDIDATE_GROUPS = ("auto", "vote")
 #: The photo's own column sets beside a fitted or true classifier (``photo_structure`` is named above them):
-#: its radial profile, the paper's features, LBP, and structure with LBP (the photo's BRDF columns are zero, so dropped).
-PHOTO_GROUPS = {"photo_profile": "profile", "photo_paper": "paper", "photo_lbp": "lbp", "photo_texture": "texture"}
+#: its radial profile, the paper's features, LBP, structure with LBP, and structure with the spectrum rings (the photo's
+#: BRDF columns are zero, so dropped).
+PHOTO_GROUPS = {"photo_profile": "profile", "photo_paper": "paper", "photo_lbp": "lbp", "photo_texture": "texture",
+                "photo_spectrum": "spectrum"}
 #: Sources whose structure descriptor takes its weave rings ``w_*`` into every set that holds it (docs/design.md,
 #: "The weave rings"); the other sources' tables hold the rings too, and their sets leave them out.
 RING_SOURCES = ("photo", "fitted")
