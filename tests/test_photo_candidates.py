@@ -16,7 +16,7 @@ from clothscope.features.structure import SPECTRUM_COLUMNS, STRUCTURE_COLUMNS, W
 def test_photo_spectrum_adds_the_spectrum_rings_to_the_photo_structure():
     columns = pd.Index([f"photo.{c}" for c in (*STRUCTURE_COLUMNS, *WEAVE_COLUMNS, *SPECTRUM_COLUMNS, "roughness")])
     sets = pc.photo_sets(columns)
-    assert list(sets) == ["photo_structure", *PHOTO_GROUPS, "photo_spectrum"]
+    assert list(sets) == ["photo_structure", *PHOTO_GROUPS] and "photo_spectrum" in sets
     assert not any(c.startswith("photo.p_") for c in sets["photo_structure"])
     assert sets["photo_spectrum"] == sets["photo_structure"] + [f"photo.{c}" for c in SPECTRUM_COLUMNS]
 

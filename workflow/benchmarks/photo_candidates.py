@@ -9,9 +9,9 @@ them. For each run, LOOCV with a column set chosen inside each fold by its train
 unless another set beats it by the sign test), among two candidate lists:
 
 - ``photo's sets``: the photo's sets of the classifier of record, ``photo_structure`` and
-  :data:`clothscope.classify.feature_sets.PHOTO_GROUPS`;
+  :data:`clothscope.classify.feature_sets.PHOTO_GROUPS`, without ``photo_spectrum`` (the list of 2026-11-28);
 - ``with photo_spectrum``: the same and the photo's structure descriptor with its spectrum rings ``p_*``
-  (:func:`clothscope.features.structure.spectrum_rings`).
+  (:func:`clothscope.features.structure.spectrum_rings`; a member of the record's vote since 2026-12-07).
 
 The fitted maps' sets are left out: the proxy reads the candidates the folds of the classifier of record
 have chosen on the capture-realistic sets (``docs/results.md``). Plain LOOCV of ``photo_structure`` and of
@@ -35,10 +35,9 @@ ALONE = ("photo_structure", "photo_spectrum")
 
 
 def photo_sets(columns: pd.Index) -> dict[str, list[str]]:
-    """The photo's candidate column sets of the classifier of record, and ``photo_spectrum`` last."""
+    """The photo's candidate column sets of the classifier of record, ``photo_spectrum`` among them."""
     sets = {"photo_structure": source_columns(columns, "photo", "structure")}
-    sets |= {name: source_columns(columns, "photo", group) for name, group in PHOTO_GROUPS.items()}
-    return sets | {"photo_spectrum": source_columns(columns, "photo", "spectrum")}
+    return sets | {name: source_columns(columns, "photo", group) for name, group in PHOTO_GROUPS.items()}
 
 
 def photo_inputs(run: Path) -> tuple[pd.DataFrame, pd.DataFrame | None, dict[str, list[str]]]:

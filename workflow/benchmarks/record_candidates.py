@@ -9,7 +9,8 @@ them, and the ``auto`` classifier of record is scored by the same LOOCV (a colum
 each fold by the fold's training images only) with two candidate lists: the fitted maps' sets with
 ``photo_structure`` and ``plus_photo`` (before 2026-11-25), and the same with the photo's radial
 profile, paper features, LBP and structure + LBP added
-(:data:`clothscope.classify.feature_sets.PHOTO_GROUPS`, the default since). Writes
+(:data:`clothscope.classify.feature_sets.PHOTO_GROUPS`, the default since; structure + spectrum rings joined them on
+2026-12-07). Writes
 ``results/bench/<name>.{csv,md}``: per run and list, images right, and the sets the folds chose.
 Nothing is chosen here.
 
