@@ -951,6 +951,11 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/invariance_fitted.py --images all --out results/bench/invariance_1204_mixed "
                         "(every transformed photo prepared and fitted from scratch, after the default run; other runs "
                         "shared the two cores)"),
+        BenchmarkReport("Invariance of predictions, refitted, with the photo's spectrum rings in the vote, 2026-12-07",
+                        ("bench/invariance_1207/invariance_fitted.md",),
+                        f"{py}/invariance_fitted.py --images all --out results/bench/invariance_1207 "
+                        "(every transformed photo prepared and fitted from scratch; other jobs shared the two cores for "
+                        "its first third)"),
         BenchmarkReport("The invariance benchmark's own noise: every photo refitted as it is, with other render samples",
                         ("bench/invariance_noise_1203/invariance_fitted.md",),
                         f"{py}/invariance_fitted.py --images all --transforms refit --overlay config/overlays/fit_seed_1.yaml "
