@@ -1,6 +1,6 @@
 """Benchmark set: real photos of cloth, split into a design half, a confirmation half and optional further sets.
 
-The project's own sets are synthetic. This script builds two sample sheets of real photos from a local copy of a
+The project's own sets are synthetic. This script builds sample sheets of real photos from a local copy of a
 public collection of fabric photos labelled by material, ``github.com/biancajayy/FabricClassification`` at commit
 ``85eb65094e39682e7187e513072e4510372dc80d`` (folder ``Images/<Class>/``: cotton, denim, linen, polyester; product
 and stock close-ups, 183-2667 px on the short side). The collection states no licence, so no photo is committed here:
@@ -28,7 +28,7 @@ from pathlib import Path
 
 from PIL import Image
 
-from clothscope.core.atomic import write_text
+from clothscope.core.atomic import atomic_dir
 from clothscope.core.samples import is_sample_file, sheet_from_folder, sheet_to_tsv
 
 HALVES = ("a", "b")  # the design and confirmation halves; --sets may name more
@@ -50,7 +50,7 @@ def usable_photos(folder: Path, min_side: int) -> list[Path]:
 
 
 def split_sets(source: Path, per_class: int, min_side: int, seed: int,
-                 names: tuple[str, ...] = HALVES) -> dict[str, dict[str, list[Path]]]:
+               names: tuple[str, ...] = HALVES) -> dict[str, dict[str, list[Path]]]:
     """Set -> class -> photos: each class's usable photos shuffled, the first ``per_class`` to ``names[0]``, the next
     ``per_class`` to ``names[1]``, and so on."""
     rng = random.Random(seed)
@@ -69,15 +69,21 @@ def split_sets(source: Path, per_class: int, min_side: int, seed: int,
 
 
 def write_set(photos: dict[str, list[Path]], folder: Path) -> Path:
-    """Copy a set's photos to ``folder/photos/<class>/`` and write its sample sheet; return the sheet's path."""
-    for fabric_class, files in photos.items():
-        target = folder / "photos" / fabric_class
-        target.mkdir(parents=True, exist_ok=True)
-        for photo in files:
-            shutil.copy2(photo, target / photo.name)
-    sheet = folder / "samples.tsv"
-    write_text(sheet, sheet_to_tsv(sheet_from_folder(folder / "photos")))
-    return sheet
+    """Copy a set's photos to ``folder/photos/<class>/`` and write its sample sheet; return the sheet's path.
+
+    The set is built in a temporary folder that replaces ``folder`` when complete, so an interrupted copy leaves no
+    folder that a rerun (which keeps existing sets) would take for a whole set.
+    """
+    with atomic_dir(folder) as tmp:
+        for fabric_class, files in photos.items():
+            target = tmp / "photos" / fabric_class
+            target.mkdir(parents=True)
+            for photo in files:
+                shutil.copy2(photo, target / photo.name)
+        sheet = sheet_from_folder(tmp / "photos")
+        sheet["path"] = [str(folder / Path(path).relative_to(tmp)) for path in sheet["path"]]
+        (tmp / "samples.tsv").write_text(sheet_to_tsv(sheet), encoding="utf-8")
+    return folder / "samples.tsv"
 
 
 def main() -> None:
