@@ -36,10 +36,12 @@ of its training images; ``docs/design.md``, "Pruning the vote"). ``--fitted-of-o
 the fitted features and tiles of another image (a permutation drawn with SEED, :func:`fitted_of_others`): fitted
 maps that carry no class, the failure pruning is meant to absorb.
 
-``--add-photo GROUP ...`` scores the record as configured (its vote, pruned at ``classify.prune``) with the photo's
-columns of each ``GROUP`` (a :func:`clothscope.classify.feature_sets.group_columns` group, such as ``spectrum``) added
-to its candidates as ``photo_<GROUP>``, one list per group; compare with the run's own record (its ``classify`` rule
-scored the list without them) (``docs/design.md``, "The photo's spectrum rings in the vote").
+``--add-photo GROUP ...`` scores the record as configured (its vote, pruned at ``classify.prune``) without and with the
+photo's columns of each ``GROUP`` (a :func:`clothscope.classify.feature_sets.group_columns` group, such as ``spectrum``)
+among its candidates as ``photo_<GROUP>``: two lists per group, so the comparison holds whether or not the default list
+has that set (``photo_spectrum`` joined it on 2026-12-07; ``docs/design.md``, "The photo's spectrum rings in the vote").
+The reports of 2026-12-07 hold the "with" row only, made before the member was a default; their "without" figure is
+each run's own record.
 
 ``--prefer SET ...`` scores the record with each ``classify.choice.prefer`` (``none``: the best inner
 accuracy; a candidate's name: that set unless the best beats it by the sign test of
@@ -211,16 +213,18 @@ def prune_rows(run: Path, levels: list[float], spoil_seed: int | None = None) ->
 
 
 def added_photo_rows(run: Path, groups: list[str]) -> list[dict]:
-    """LOOCV of the classifier of record as configured with the photo's columns of each group added to its candidates."""
+    """LOOCV of the classifier of record as configured, without and with the photo's columns of each group among its
+    candidates (as ``photo_<group>``, last; a candidate of that name already in the list is the one left out)."""
     ok, tiles, candidates = record_inputs(*run_tables(run), "auto")
     settings = classify_config()
     rows = []
     for group in groups:
-        added = source_columns(ok.columns, "photo", group)
+        name, added = f"photo_{group}", source_columns(ok.columns, "photo", group)
         if not added:
             raise ValueError(f"{shown(run)}: the photo's table has no columns of group {group!r}")
-        result = record_loocv(ok, {**candidates, f"photo_{group}": added}, tiles, settings)
-        rows.append(result_row(shown(run), f"the record with photo_{group} among its candidates", result))
+        without = {key: columns for key, columns in candidates.items() if key != name}
+        for label, listed in ((f"the record without {name}", without), (f"the record with {name}", {**without, name: added})):
+            rows.append(result_row(shown(run), label, record_loocv(ok, listed, tiles, settings)))
     return rows
 
 
@@ -242,7 +246,8 @@ def main() -> None:
     parser.add_argument("--prune", type=float, nargs="+", metavar="A",
                         help="score the record's vote with every set and pruned at each of these sign test levels")
     parser.add_argument("--add-photo", nargs="+", metavar="GROUP",
-                        help="score the record with the photo's columns of each GROUP (such as spectrum) among its candidates")
+                        help="score the record without and with the photo's columns of each GROUP (such as spectrum) "
+                             "among its candidates")
     parser.add_argument("--fitted-of-others", type=int, metavar="SEED",
                         help="with --prune: give each image the fitted features of another (a permutation drawn with SEED)")
     args = parser.parse_args()
@@ -272,7 +277,7 @@ def main() -> None:
     how = ("posteriors of the best K candidates averaged in each fold" if args.ensemble
            else "one set chosen inside each fold, or every candidate's posterior averaged" if args.vote
            else "candidates' posteriors averaged, less those plainly beaten in each fold" if args.prune
-           else "as configured, with the photo's columns of each group among its candidates" if args.add_photo
+           else "as configured, without and with the photo's columns of each group among its candidates" if args.add_photo
            else "column set chosen inside each fold" + (", by each inner criterion" if args.criterion else "")
            + (", by each preferred set" if args.prefer else ""))
     lines = [f"Classifier of record (LOOCV, {how}), by its candidate list:", "",
