@@ -334,7 +334,7 @@ def write_png(target: str | os.PathLike[str], encoded: np.ndarray, bits: int = 8
         image = Image.fromarray(np.round(encoded * 65535).astype(np.uint16))
     else:
         image = Image.fromarray(np.round(encoded * 255).astype(np.uint8))
-    write_with(target, lambda tmp: image.save(tmp, format="PNG", optimize=True))
+    write_with(target, lambda tmp: image.save(tmp, format="PNG"))
 
 
 def read_png(path: str | os.PathLike[str]) -> np.ndarray:

@@ -11,7 +11,6 @@ import os
 from pathlib import Path
 from typing import Any
 
-import jsonschema
 import yaml
 
 
@@ -60,6 +59,8 @@ def validate(instance: Any, schema: dict[str, Any], source: str) -> Any:
     for where, value in _numbers(filled, ()):
         if not math.isfinite(value):  # JSON Schema's ranges let NaN through
             raise InputError(f"{source}: {'.'.join(where) or 'top level'}: {value!r} is not a finite number")
+    import jsonschema  # imported here: a fit job reads constants of the config module and never validates
+
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(filled), key=lambda e: list(e.absolute_path))
     if errors:
