@@ -1044,6 +1044,10 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/fit_speed_fast_lite/fit_speed.md",),
                         f"{py}/fit_speed.py --variants fast,fast_lite,at:d2ab236 --rounds 1 --out results/bench/fit_speed_fast_lite "
                         "(run alone, right after fit_speed_1204)"),
+        BenchmarkReport("Fit time per image after the fixed-cost cuts, against d2ab236 and the code before them, 2026-12-07",
+                        ("bench/fit_speed_1207/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants fast,default,at:d2ab236,at:7dad036 --rounds 2 "
+                        "--out results/bench/fit_speed_1207 (run alone)"),
         BenchmarkReport("Fit time per image on field photos against the code of d2ab236, prepare included, 2026-12-04",
                         ("bench/fit_speed_field_1204/fit_speed.md",),
                         f"{py}/fit_speed.py --sheet results/weaves_1163/field/samples.tsv --variants default,at:d2ab236 "
