@@ -169,11 +169,11 @@ def workflow_runs(results: Path) -> list[Run]:
         return Run(label, results / folder / run, results / folder / "field" / "samples.tsv", command)
 
     def real_run(label: str, half: str, run: str = "run", overlay: str | None = None) -> Run:
-        """Set ``a``, ``b``, ``c`` or ``d`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``,
+        """Set ``a`` to ``e`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``,
         with the defaults or with ``config/overlays/<overlay>.yaml``."""
         overlay_files = f" --configfile config/config.yaml config/overlays/{overlay}.yaml" if overlay else ""
         command = (f".venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images --out {r}/real "
-                   "--sets a b c d && "
+                   "--sets a b c d e && "
                    f".venv/bin/snakemake --cores 2{overlay_files} --config samples={r}/real/{half}/samples.tsv "
                    f"results={r}/real/{half}/{run}")
         return Run(label, results / "real" / half / run, results / "real" / half / "samples.tsv", command, truth=False)
@@ -241,6 +241,7 @@ def workflow_runs(results: Path) -> list[Run]:
         real_run("real photos, confirmation half, magnified up to 2x", "b", "run_up2", "upsample_2"),
         real_run("real photos, third set", "c"),
         real_run("real photos, fourth set", "d"),
+        real_run("real photos, fifth set (never looked at before its run)", "e"),
     ]
 
 
