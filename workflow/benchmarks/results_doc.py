@@ -1049,6 +1049,16 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/fit_speed_1207/fit_speed.md",),
                         f"{py}/fit_speed.py --variants fast,default,at:d2ab236,at:7dad036 --rounds 2 "
                         "--out results/bench/fit_speed_1207 (run alone)"),
+        BenchmarkReport("The lighter fast preset's second timing, after the fixed-cost cuts, 2026-12-07",
+                        ("bench/fit_speed_fast_lite_1207/fit_speed.md",),
+                        f"{py}/fit_speed.py --variants fast,fast_lite,at:d2ab236 --rounds 1 "
+                        "--out results/bench/fit_speed_fast_lite_1207 (run alone, right after fit_speed_1207)"),
+        BenchmarkReport("The lighter fast preset against fast on the 42 embedded images, 2026-12-07",
+                        ("bench/run_figures_fast_lite/run_figures.md",),
+                        f"{py}/run_figures.py results/exp_fast results/exp_fast_lite --out results/bench/run_figures_fast_lite "
+                        "(after .venv/bin/snakemake --cores 2 --config preset=fast results=results/exp_fast and "
+                        ".venv/bin/snakemake --cores 2 --configfile config/config.yaml config/overlays/fast_lite.yaml "
+                        "--config results=results/exp_fast_lite)"),
         BenchmarkReport("Fit time per image on field photos against the code of d2ab236, prepare included, 2026-12-04",
                         ("bench/fit_speed_field_1204/fit_speed.md",),
                         f"{py}/fit_speed.py --sheet results/weaves_1163/field/samples.tsv --variants default,at:d2ab236 "
