@@ -1052,7 +1052,7 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The lighter fast preset's second timing, after the fixed-cost cuts, 2026-12-07",
                         ("bench/fit_speed_fast_lite_1207/fit_speed.md",),
                         f"{py}/fit_speed.py --variants fast,fast_lite,at:d2ab236 --rounds 1 "
-                        "--out results/bench/fit_speed_fast_lite_1207 (run alone, right after fit_speed_1207)"),
+                        "--out results/bench/fit_speed_fast_lite_1207 (run alone)"),
         BenchmarkReport("The lighter fast preset against fast on the 42 embedded images, 2026-12-07",
                         ("bench/run_figures_fast_lite/run_figures.md",),
                         f"{py}/run_figures.py results/exp_fast results/exp_fast_lite --out results/bench/run_figures_fast_lite "
