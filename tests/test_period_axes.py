@@ -47,6 +47,25 @@ def test_the_summary_sums_the_sets():
 def test_the_native_summary_sums_the_field_folders():
     table = pd.DataFrame([{"set": "a/field", "periodic": 30, "weighted": 24, "axes": 25, "axes_harmonic": 27},
                           {"set": "b/field", "periodic": 36, "weighted": 24, "axes": 29, "axes_harmonic": 29}])
-    text = pa.native_markdown(table, ["weighted", "axes", "axes_harmonic"])
+    text = pa.native_markdown(table, ["weighted", "axes", "axes_harmonic"], ["shading"], None)
     assert "| `a/field` | 30 | 24 | 25 | 27 |" in text and "| all | 66 | 48 | 54 | 56 |" in text
     assert "| field | periodic | `weighted` | `axes` | `axes_harmonic` |" in text
+    assert "on the shading" in text and "differ" not in text
+
+
+def test_two_fields_name_their_columns_and_the_sheets_count_photos_whose_periods_differ(tmp_path, monkeypatch):
+    assert pa.pick_columns(["axes"], ["shading"]) == ["axes"]
+    assert pa.pick_columns(["axes", "weighted"], ["shading", "luminance"]) == [
+        "shading axes", "shading weighted", "luminance axes", "luminance weighted"]
+    readings = {"a.jpg": {"shading axes": 4.0, "luminance axes": 4.1},  # within 5%: the same
+                "b.jpg": {"shading axes": 2.5, "luminance axes": 5.0},  # a harmonic on one field
+                "c.jpg": {"shading axes": None, "luminance axes": 6.0},  # a lattice on one field only
+                "d.jpg": {"shading axes": None, "luminance axes": None}}  # none on either: the same
+    monkeypatch.setattr(pa, "native_periods", lambda path, peaks, fields: readings[path.name])
+    monkeypatch.setattr(pa, "ROOT", tmp_path)
+    pd.DataFrame({"image_id": list("abcd"), "path": [f"{i}.jpg" for i in "abcd"]}).to_csv(tmp_path / "s.tsv", sep="\t")
+    row = pa.sheet_row(tmp_path / "s.tsv", "axes", ["shading", "luminance"])
+    assert (row["photos"], row["differ"]) == (4, 2)
+    table = pd.DataFrame([{"set": "m/field", "periodic": 30, "shading axes": 25, "luminance axes": 27}])
+    text = pa.native_markdown(table, ["shading axes", "luminance axes"], ["shading", "luminance"], pd.DataFrame([row]))
+    assert "| `m/field` | 30 | 25 | 27 |" in text and "| all | 4 | 2 |" in text

@@ -19,15 +19,20 @@ the candidate pick (``CANDIDATE_RUN``, named by ``--candidate``; ``RUN`` prepare
   ``photo's sets``).
 
 With ``--native``, no run is needed: each periodic photo of each field folder is decoded and its native period read
-with each pick of ``--peaks``, as ``prepare`` would (the config's ``prepare.period_window`` and
-``period_field``); the report then gives periods
-within 5% only (how the pick's settings were chosen, on sets no confirmation used). Writes
-``results/bench/<name>.{csv,md}``.
+with each pick of ``--peaks``, as ``prepare`` would (the config's ``prepare.period_window``, on the config's
+``prepare.period_field`` or on each field of ``--fields``); the report then gives periods
+within 5% only (how the pick's settings were chosen, on sets no confirmation used). ``--sheets`` adds photos without
+truth (sample sheets, such as the real sets'): per sheet, the photos whose periods on the first two ``--fields``
+differ by more than 5%. Writes ``results/bench/<name>.{csv,md}``.
+
+    .venv/bin/python workflow/benchmarks/period_axes.py --native FIELD [FIELD ...] --peaks axes_fundamental
+        --fields shading luminance [--sheets SHEET ...] [--name period_fields]
 """
 from __future__ import annotations
 
 import argparse
 import json
+from functools import cache
 from pathlib import Path
 
 import pandas as pd
@@ -36,7 +41,8 @@ from field_set import DECODE, TOLERANCE, period_ratio
 from harness import ROOT, publish, record_loocv, shown, validated_config
 from held_out_tiles import scored_lists
 
-from clothscope.core.imageio import decode_image
+from clothscope.core.config import config_schema
+from clothscope.core.imageio import ImageRejected, decode_image
 from clothscope.evaluate.accuracy import window_seen_scale
 from clothscope.features.structure import StructureSettings
 from clothscope.prepare.image import PERIOD_PEAKS, STATUS_FILE, lattice_period, native_lattice
@@ -96,20 +102,58 @@ def periods_too_long(ratios: list[float | None]) -> int:
     return sum(r is not None and r >= TOO_LONG for r in ratios)
 
 
-def native_rows(field: Path, peaks: list[str]) -> dict:
-    """Periodic photos of a field folder, and those whose native period each pick reads within 5% of the truth."""
+def pick_columns(peaks: list[str], fields: list[str]) -> list[str]:
+    """Report columns: the picks, each prefixed with its analysis field when several fields are compared."""
+    return list(peaks) if len(fields) == 1 else [f"{field} {peak}" for field in fields for peak in peaks]
+
+
+@cache
+def reading_settings() -> tuple[StructureSettings, int]:
+    """The config's lattice peak test and ``prepare.period_window``."""
     config = validated_config()
-    lattice, prepare = StructureSettings(**config["features"]["structure"]), config["prepare"]
+    return StructureSettings(**config["features"]["structure"]), config["prepare"]["period_window"]
+
+
+def native_periods(path: Path, peaks: list[str], fields: list[str]) -> dict[str, float | None]:
+    """A photo's native period (None: no lattice) per column of :func:`pick_columns`, read as ``prepare`` reads it."""
+    lattice, window = reading_settings()
+    rgb = decode_image(path, *DECODE).rgb
+    periods = {}
+    for field in fields:
+        native = native_lattice(rgb, window, lattice, field)
+        for peak in peaks:
+            periods[peak if len(fields) == 1 else f"{field} {peak}"] = lattice_period(native, peak)
+    return periods
+
+
+def native_rows(field: Path, peaks: list[str], fields: list[str]) -> dict:
+    """Periodic photos of a field folder, and those whose native period each pick reads within 5% of the truth."""
+    window = reading_settings()[1]
     records = truth_records(field)
-    row = {"set": shown(field), "periodic": 0, **{peak: 0 for peak in peaks}}
+    columns = pick_columns(peaks, fields)
+    row = {"set": shown(field), "periodic": 0, **{column: 0 for column in columns}}
     for path in sorted(field.glob("*/*.jpg")):
         record = records.get(path.stem)
         if record is None:  # not periodic
             continue
-        native = native_lattice(decode_image(path, *DECODE).rgb, prepare["period_window"], lattice, prepare["period_field"])
         row["periodic"] += 1
-        for peak in peaks:
-            row[peak] += is_within(lattice_period(native, peak), record, prepare["period_window"])
+        for column, period in native_periods(path, peaks, fields).items():
+            row[column] += is_within(period, record, window)
+    return row
+
+
+def sheet_row(sheet: Path, peak: str, fields: list[str]) -> dict:
+    """Photos of a sample sheet that decode, and those whose periods on the first two ``fields`` differ by over 5%."""
+    table = pd.read_csv(sheet, sep="\t")
+    row = {"set": shown(sheet), "photos": 0, "differ": 0}
+    for path in table["path"]:
+        try:
+            periods = list(native_periods(ROOT / path, [peak], fields[:2]).values())
+        except ImageRejected:  # prepare would reject it too
+            continue
+        row["photos"] += 1
+        a, b = periods
+        row["differ"] += (a is None) != (b is None) or (a is not None and abs(a / b - 1) > TOLERANCE)
     return row
 
 
@@ -156,18 +200,25 @@ def markdown(table: pd.DataFrame, candidate: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def native_markdown(table: pd.DataFrame, peaks: list[str]) -> str:
-    """Per field folder, periodic photos and those each pick reads within 5%; then summed."""
-    prepare = validated_config()["prepare"]
-    lines = [f"Periodic photos whose native period (centred {prepare['period_window']} px, {prepare['period_field']}, "
+def native_markdown(table: pd.DataFrame, columns: list[str], fields: list[str], sheets: pd.DataFrame | None) -> str:
+    """Per field folder, periodic photos and those each pick reads within 5%; then summed; then the sheets' photos
+    whose periods on two fields differ."""
+    window = reading_settings()[1]
+    read_on = " and the ".join(fields)
+    lines = [f"Periodic photos whose native period (centred {window} px, on the {read_on}, "
              "as `prepare` reads it) lies within 5% of the truth as seen in that window, with each lattice peak pick "
              "(`prepare.period_peak`; `weighted`: the peak of most power times frequency, `axes`: that peak among those "
              "along the yarn axes, `axes_harmonic`: that, with a (1, 1) harmonic stepped down to the threads where the "
              "photo shows no yarn axes, `axes_fundamental`: that, with a 2nd to 4th harmonic of the threads stepped down to "
-             "them where the photo shows no yarn axes).", "", "| field | periodic | " + " | ".join(f"`{p}`" for p in peaks) + " |",
-             "|---|---|" + "---|" * len(peaks)]
-    rows = [*((f"`{r['set']}`", r) for _, r in table.iterrows()), ("all", table[["periodic", *peaks]].sum())]
-    lines += [f"| {name} | {r['periodic']} | " + " | ".join(str(r[p]) for p in peaks) + " |" for name, r in rows]
+             "them where the photo shows no yarn axes).", "",
+             "| field | periodic | " + " | ".join(f"`{c}`" for c in columns) + " |", "|---|---|" + "---|" * len(columns)]
+    rows = [*((f"`{r['set']}`", r) for _, r in table.iterrows()), ("all", table[["periodic", *columns]].sum())]
+    lines += [f"| {name} | {r['periodic']} | " + " | ".join(str(r[c]) for c in columns) + " |" for name, r in rows]
+    if sheets is not None and len(sheets):
+        lines += ["", f"Photos without truth whose periods on the {fields[0]} and the {fields[1]} differ by more than 5% "
+                  "(or only one finds a lattice):", "", "| sheet | photos | differ |", "|---|---|---|"]
+        lines += [f"| `{r['set']}` | {r['photos']} | {r['differ']} |" for _, r in sheets.iterrows()]
+        lines.append(f"| all | {sheets['photos'].sum()} | {sheets['differ'].sum()} |")
     return "\n".join(lines) + "\n"
 
 
@@ -178,14 +229,24 @@ def main() -> None:
     parser.add_argument("--native", nargs="+", metavar="FIELD", help="field folders read natively, without runs")
     parser.add_argument("--peaks", nargs="+", default=["weighted", "axes"], choices=PERIOD_PEAKS,
                         help="the picks compared with --native")
+    field_names = config_schema()["properties"]["prepare"]["properties"]["period_field"]["enum"]
+    parser.add_argument("--fields", nargs="+", choices=field_names,
+                        help="with --native: the analysis fields read (default: the config's prepare.period_field)")
+    parser.add_argument("--sheets", nargs="+", metavar="SHEET",
+                        help="with --native and two --fields: sample sheets of photos without truth")
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     parser.add_argument("--name")
     args = parser.parse_args()
     if bool(args.set) == bool(args.native):
         parser.error("give either --set (repeated) or --native")
     if args.native:
-        table = pd.DataFrame([native_rows(ROOT / field, args.peaks) for field in args.native])
-        publish(args.out, args.name or "period_axes_native", table, native_markdown(table, args.peaks))
+        fields = args.fields or [validated_config()["prepare"]["period_field"]]
+        if args.sheets and len(fields) < 2:
+            parser.error("--sheets compares two --fields")
+        table = pd.DataFrame([native_rows(ROOT / field, args.peaks, fields) for field in args.native])
+        sheets = pd.DataFrame([sheet_row(ROOT / sheet, args.peaks[0], fields) for sheet in args.sheets or []])
+        publish(args.out, args.name or "period_axes_native", table,
+                native_markdown(table, pick_columns(args.peaks, fields), fields, sheets))
         return
     rows = [row for run, candidate, truth in args.set for row in set_rows((ROOT / run, ROOT / candidate), ROOT / truth)]
     table = pd.DataFrame(rows)

@@ -169,11 +169,11 @@ def workflow_runs(results: Path) -> list[Run]:
         return Run(label, results / folder / run, results / folder / "field" / "samples.tsv", command)
 
     def real_run(label: str, half: str, run: str = "run", overlay: str | None = None) -> Run:
-        """Set ``a`` to ``e`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``,
+        """Set ``a`` to ``f`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``,
         with the defaults or with ``config/overlays/<overlay>.yaml``."""
         overlay_files = f" --configfile config/config.yaml config/overlays/{overlay}.yaml" if overlay else ""
         command = (f".venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images --out {r}/real "
-                   "--sets a b c d e && "
+                   "--sets a b c d e f && "
                    f".venv/bin/snakemake --cores 2{overlay_files} --config samples={r}/real/{half}/samples.tsv "
                    f"results={r}/real/{half}/{run}")
         return Run(label, results / "real" / half / run, results / "real" / half / "samples.tsv", command, truth=False)
@@ -243,6 +243,7 @@ def workflow_runs(results: Path) -> list[Run]:
         real_run("real photos, third set", "c"),
         real_run("real photos, fourth set", "d"),
         real_run("real photos, fifth set (never looked at before its run)", "e"),
+        real_run("real photos, sixth set (never looked at before its run)", "f"),
     ]
 
 
@@ -684,6 +685,14 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         ("bench/period_truth_window_1163.md",),
                         f"{py}/period_axes.py --native results/weaves_1163/field --peaks axes_fundamental "
                         "--name period_truth_window_1163 (seed 20261163, seventeenth session)"),
+        BenchmarkReport("The thread period on the shading and on the luminance",
+                        ("bench/period_fields.md",),
+                        f"{py}/period_axes.py --native results/microscope_1208/field results/microscope_1152/field "
+                        "results/microscope_1153/field results/weaves_1154/field --peaks axes_fundamental --fields "
+                        "shading luminance --sheets results/real/a/samples.tsv results/real/b/samples.tsv "
+                        "results/real/c/samples.tsv results/real/d/samples.tsv results/real/e/samples.tsv "
+                        "--name period_fields (thirty-seventh session; each field set rendered by the commands in "
+                        "config/overlays/<set>.yaml, the real sheets by real_photos.py)"),
         BenchmarkReport("Thread period of fitted normal maps, strongest peak against power times frequency",
                         ("bench/fitted_period.md",),
                         f"{py}/fitted_period.py results:config/samples.tsv results/holdout/run:results/holdout/samples.tsv "

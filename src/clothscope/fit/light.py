@@ -25,7 +25,6 @@ from typing import Any
 import drjit as dr
 import numpy as np
 from scipy import ndimage
-from scipy.spatial.transform import Rotation
 
 from clothscope.core.imageio import luminance
 from clothscope.fit.model import FitCamera, FitLight, calibrated_intensity
@@ -138,6 +137,8 @@ def tilted(light: FitLight, slope_x: float, slope_y: float) -> FitLight:
     the light's direction relative to the cloth, so a tilted cloth takes its
     light along (the rotation that takes +z to the tilted normal).
     """
+    from scipy.spatial.transform import Rotation  # imported here: only the geometry stage tilts the light
+
     turn, _ = Rotation.align_vectors([cloth_normal(slope_x, slope_y)], [[0.0, 0.0, 1.0]])
     incidence = light.polar_deg if light.incidence_deg is None else light.incidence_deg
     return light_along(turn.apply(light.direction), light.distance, incidence)
