@@ -620,6 +620,14 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
         BenchmarkReport("The photo's spectrum rings as a candidate of the classifier of record, the design set",
                         ("bench/photo_candidates_design.md",),
                         f"{py}/photo_candidates.py results --name photo_candidates_design"),
+        BenchmarkReport("The photo described from a 512 px working image, screening on the real sets A-E",
+                        ("bench/photo512_screening.md",),
+                        f"{py}/photo_candidates.py "
+                        + " ".join(f"results/real/{s}/run results/exp512/{s}" for s in "abcde")
+                        + " --name photo512_screening (each results/exp512/<set>: .venv/bin/snakemake --cores 2 "
+                        "--configfile config/config.yaml config/overlays/photo_512.yaml --config "
+                        "samples=results/real/<set>/samples.tsv results=results/exp512/<set> -- "
+                        "results/exp512/<set>/features/photo/table.parquet; thirty-seventh session)"),
         BenchmarkReport("Each held-out image scored with its tiles, three fresh sets",
                         ("bench/held_out_tiles.md",),
                         f"{py}/held_out_tiles.py results/microscope_1156/run results/weaves_1157/run "
