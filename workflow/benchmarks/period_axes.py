@@ -118,12 +118,11 @@ def native_periods(path: Path, peaks: list[str], fields: list[str]) -> dict[str,
     """A photo's native period (None: no lattice) per column of :func:`pick_columns`, read as ``prepare`` reads it."""
     lattice, window = reading_settings()
     rgb = decode_image(path, *DECODE).rgb
-    periods = {}
-    for field in fields:
+    periods = []
+    for field in fields:  # field-major, as pick_columns orders them
         native = native_lattice(rgb, window, lattice, field)
-        for peak in peaks:
-            periods[peak if len(fields) == 1 else f"{field} {peak}"] = lattice_period(native, peak)
-    return periods
+        periods += [lattice_period(native, peak) for peak in peaks]
+    return dict(zip(pick_columns(peaks, fields), periods))
 
 
 def native_rows(field: Path, peaks: list[str], fields: list[str]) -> dict:
