@@ -62,3 +62,12 @@ def test_a_third_set_takes_the_next_photos_and_leaves_the_halves_as_they_were(co
     for fabric_class in ("cotton", "denim"):
         assert len(three["c"][fabric_class]) == 2
         assert not set(three["c"][fabric_class]) & set(halves["a"][fabric_class] + halves["b"][fabric_class])
+
+
+def test_a_short_last_set_takes_what_is_left_and_leaves_the_earlier_sets_as_they_were(collection):
+    two = real_photos.split_sets(collection, per_class=4, min_side=30, seed=7, names=("a",))
+    short = real_photos.split_sets(collection, per_class=4, min_side=30, seed=7, names=("a", "b"), last_short=True)
+    assert short["a"] == two["a"]
+    assert {c: len(p) for c, p in short["b"].items()} == {"cotton": 2, "denim": 2}  # 6 usable, 4 in a
+    with pytest.raises(ValueError, match="fewer than the 12 3 sets need"):  # nothing left for a third set
+        real_photos.split_sets(collection, per_class=4, min_side=30, seed=7, names=("a", "b", "c"), last_short=True)

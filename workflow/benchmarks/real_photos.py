@@ -16,7 +16,7 @@ under a rule written beforehand), and so on for each name of ``--sets`` (``a b c
     .venv/bin/snakemake --cores 2 --config samples=results/real/a/samples.tsv results=results/real/a/run
 
     .venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images [--out results/real]
-        [--sets a b] [--per-class 12] [--min-side 300] [--seed 20261207]
+        [--sets a b] [--per-class 12] [--min-side 300] [--seed 20261207] [--last-short]
 """
 from __future__ import annotations
 
@@ -50,15 +50,16 @@ def usable_photos(folder: Path, min_side: int) -> list[Path]:
 
 
 def split_sets(source: Path, per_class: int, min_side: int, seed: int,
-               names: tuple[str, ...] = HALVES) -> dict[str, dict[str, list[Path]]]:
+               names: tuple[str, ...] = HALVES, last_short: bool = False) -> dict[str, dict[str, list[Path]]]:
     """Set -> class -> photos: each class's usable photos shuffled, the first ``per_class`` to ``names[0]``, the next
-    ``per_class`` to ``names[1]``, and so on."""
+    ``per_class`` to ``names[1]``, and so on. ``last_short``: the last set takes what is left of a class that has too
+    few photos for it (at least one), instead of an error; the earlier sets are the same either way."""
     rng = random.Random(seed)
     sets: dict[str, dict[str, list[Path]]] = {name: {} for name in names}
     for folder in sorted((p for p in source.iterdir() if p.is_dir()), key=lambda p: p.name.lower()):
         photos = usable_photos(folder, min_side)
         rng.shuffle(photos)
-        if len(photos) < len(names) * per_class:
+        if len(photos) < len(names) * per_class and not (last_short and len(photos) > (len(names) - 1) * per_class):
             raise ValueError(f"{folder}: {len(photos)} usable photos, fewer than the {len(names) * per_class} "
                              f"{len(names)} sets need")
         for index, name in enumerate(names):
@@ -94,13 +95,15 @@ def main() -> None:
     parser.add_argument("--per-class", type=int, default=12)
     parser.add_argument("--min-side", type=int, default=300)
     parser.add_argument("--seed", type=int, default=20261207)
+    parser.add_argument("--last-short", action="store_true",
+                        help="let the last set take what is left of a class with too few photos")
     args = parser.parse_args()
     if not args.source.is_dir():
         parser.error(f"{args.source}: not a folder")
     if len(set(args.sets)) != len(args.sets) or any(not name.isidentifier() for name in args.sets):
         parser.error(f"--sets: distinct plain names wanted, got {' '.join(args.sets)}")
     try:
-        sets = split_sets(args.source, args.per_class, args.min_side, args.seed, tuple(args.sets))
+        sets = split_sets(args.source, args.per_class, args.min_side, args.seed, tuple(args.sets), args.last_short)
     except ValueError as error:
         parser.error(str(error))
     for name, photos in sets.items():

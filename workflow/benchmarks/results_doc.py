@@ -169,11 +169,11 @@ def workflow_runs(results: Path) -> list[Run]:
         return Run(label, results / folder / run, results / folder / "field" / "samples.tsv", command)
 
     def real_run(label: str, half: str, run: str = "run", overlay: str | None = None) -> Run:
-        """Set ``a`` to ``f`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``,
+        """Set ``a`` to ``g`` of the real photos (``real_photos.py``) run into ``results/real/<half>/<run>``,
         with the defaults or with ``config/overlays/<overlay>.yaml``."""
         overlay_files = f" --configfile config/config.yaml config/overlays/{overlay}.yaml" if overlay else ""
         command = (f".venv/bin/python workflow/benchmarks/real_photos.py --source <clone>/Images --out {r}/real "
-                   "--sets a b c d e f && "
+                   "--sets a b c d e f g --last-short && "
                    f".venv/bin/snakemake --cores 2{overlay_files} --config samples={r}/real/{half}/samples.tsv "
                    f"results={r}/real/{half}/{run}")
         return Run(label, results / "real" / half / run, results / "real" / half / "samples.tsv", command, truth=False)
@@ -244,6 +244,7 @@ def workflow_runs(results: Path) -> list[Run]:
         real_run("real photos, fourth set", "d"),
         real_run("real photos, fifth set (never looked at before its run)", "e"),
         real_run("real photos, sixth set (never looked at before its run)", "f"),
+        real_run("real photos, seventh set (never looked at before its run)", "g"),
     ]
 
 
@@ -628,6 +629,18 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         "--configfile config/config.yaml config/overlays/photo_512.yaml --config "
                         "samples=results/real/<set>/samples.tsv results=results/exp512/<set> -- "
                         "results/exp512/<set>/features/photo/table.parquet; thirty-seventh session)"),
+        BenchmarkReport("The photo's whole frame as a member of the vote, screening on the real sets A-E and two "
+                        "synthetic runs",
+                        ("bench/frame_screening.md", "bench/frame_screening_synthetic.md"),
+                        f"{py}/frame_candidate.py " + " ".join(f"results/real/{s}/run" for s in "abcde")
+                        + f" --with-only --name frame_screening; {py}/frame_candidate.py results "
+                        "results/microscope_1208/run --with-only --name frame_screening_synthetic (thirty-eighth "
+                        "session; the rule in docs/design.md)"),
+        BenchmarkReport("The photo's whole frame as a member of the vote, confirmation on the real sets F and G",
+                        ("bench/frame_confirm_f.md", "bench/frame_confirm_g.md"),
+                        f"{py}/frame_candidate.py results/real/f/run --with-only --name frame_confirm_f; "
+                        f"{py}/frame_candidate.py results/real/g/run --with-only --name frame_confirm_g (thirty-eighth "
+                        "session; G made by real_photos.py --sets a b c d e f g --last-short and run with the defaults)"),
         BenchmarkReport("Each held-out image scored with its tiles, three fresh sets",
                         ("bench/held_out_tiles.md",),
                         f"{py}/held_out_tiles.py results/microscope_1156/run results/weaves_1157/run "
