@@ -231,6 +231,7 @@ def workflow_runs(results: Path) -> list[Run]:
         fitted_field_run("microscope-like weaves 1177, fitted", "microscope_1177", "run"),
         fitted_field_run("three weaves 1205, fitted (hard dye layout)", "weaves_1205", "run"),
         fitted_field_run("microscope-like weaves 1208, fitted", "microscope_1208", "run"),
+        fitted_field_run("microscope-like weaves 1209, fitted", "microscope_1209", "run"),
         mixed_layout_run("held-out 1178, mixed dye layout", "holdout_1178", "holdout"),
         mixed_layout_run("three weaves 1163, mixed dye layout", "weaves_1163", "field"),
         mixed_layout_run("three weaves 1205, mixed dye layout", "weaves_1205", "field"),
