@@ -27,16 +27,17 @@ from field_set import DECODE
 from harness import ROOT, record_inputs, record_loocv, run_tables, runs_report, shown
 from PIL import Image
 
+from clothscope.core.fourier import radius_grid
 from clothscope.core.imageio import decode_image, luminance
-from clothscope.features.structure import LBP_SCALES, lbp_histogram
-from clothscope.prepare.image import STATUS_FILE
+from clothscope.features.structure import LBP_COLUMNS, lbp_baseline
+from clothscope.prepare.image import read_status
 
 #: side (pixels) of the resampled frame
 FRAME_SIZE = 256
 #: edges of the spectrum's rings, in cycles per frame (log spaced)
 FRAME_RING_EDGES = tuple(float(r) for r in np.geomspace(2.0, 100.0, 11))
-#: the frame's LBP histogram columns, one per uniform code and scale
-FRAME_LBP_COLUMNS = tuple(f"f_lbp_{p}_{r}_{k}" for p, r in LBP_SCALES for k in range(p + 2))
+#: the frame's LBP histogram columns: the ``lbp_*`` baseline's, prefixed
+FRAME_LBP_COLUMNS = tuple(f"f_{name}" for name in LBP_COLUMNS)
 #: the frame's ring columns: log power, mean removed
 FRAME_RING_COLUMNS = tuple(f"f_ring_{k}" for k in range(len(FRAME_RING_EDGES) - 1))
 #: every frame column, in table order
@@ -68,8 +69,7 @@ def ring_powers(field: np.ndarray) -> np.ndarray:
         return np.zeros(len(FRAME_RING_EDGES) - 1)
     hann = np.hanning(size)
     power = np.abs(np.fft.fftshift(np.fft.fft2(contrast * np.outer(hann, hann)))) ** 2
-    y, x = np.indices(power.shape) - size // 2
-    radius = np.hypot(x, y)
+    radius = radius_grid(size)[2]
     edges = FRAME_RING_EDGES
     rings = np.array([power[(radius >= a) & (radius < b)].mean() for a, b in zip(edges[:-1], edges[1:])])
     logs = np.log(np.maximum(rings, POWER_FLOOR))
@@ -87,8 +87,8 @@ def frame_columns(rgb: np.ndarray) -> dict[str, float]:
     field = frame_field(rgb)
     if not np.all(np.isfinite(field)):
         raise ValueError("the photo's frame holds NaN or infinite values")
-    values = [v for p, r in LBP_SCALES for v in lbp_histogram(field, p, r)] + list(ring_powers(field))
-    return {name: float(v) for name, v in zip(FRAME_COLUMNS, values, strict=True)}
+    histograms = {f"f_{name}": value for name, value in lbp_baseline(field).items()}
+    return histograms | {name: float(v) for name, v in zip(FRAME_RING_COLUMNS, ring_powers(field), strict=True)}
 
 
 #: the member's name among the record's candidates
@@ -97,7 +97,7 @@ MEMBER = "photo_frame"
 
 def photo_path(run: Path, image_id: str) -> Path:
     """The photo ``prepare`` read for an image of ``run`` (relative paths are under the repository root)."""
-    path = Path(json.loads((run / "prepared" / image_id / STATUS_FILE).read_text(encoding="utf-8"))["path"])
+    path = Path(read_status(run / "prepared" / image_id)["path"])
     return path if path.is_absolute() else ROOT / path
 
 
