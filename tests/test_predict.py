@@ -60,11 +60,15 @@ def test_predict_prints_a_class_per_photo_and_a_reason_per_bad_one(photo_model, 
     bad.write_text("not an image")
     code = main(["predict", str(HELD_OUT), str(bad), str(tmp_path / "missing.jpg"), "--model", str(photo_model),
                  "--out", str(tmp_path / "out"), "--quiet"])
-    lines = capsys.readouterr().out.strip().splitlines()
+    printed = capsys.readouterr()
+    lines = printed.out.strip().splitlines()
     assert code == 0 and len(lines) == 3
     photo, predicted, posterior, physics_path = lines[0].split("\t")
     assert photo == str(HELD_OUT) and predicted in CLASSES and 0 < float(posterior) <= 1
     record = json.loads(open(physics_path).read())
+    # the held-out satin's threads are about 7 px even at native resolution, under the 8-16 px band: prepare says so
+    assert record["prepare_note"].startswith("threads are") and record["prepare_note"].endswith("photograph closer")
+    assert f"clothscope: note: {HELD_OUT}: {record['prepare_note']}" in printed.err.splitlines()
     assert record["predicted_class"] == predicted and math.isclose(sum(record["posteriors"].values()), 1.0)
     assert record["physics"]["parameters"]["bending"] and not list((tmp_path / "out").rglob(".*tmp*"))
     assert lines[1].startswith(f"{bad}\tnot classified\t{bad}") and "\n" not in lines[1]

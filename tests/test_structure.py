@@ -319,6 +319,9 @@ def test_feature_sets_compare_on_the_same_images_and_say_what_the_fit_bought():
     assert bool(scored.set_index("feature_set").loc["lbp_photo", "photo_only"])
     line = inverse_rendering_gain(report, "structure_brdf_fitted")
     assert line.startswith("Inverse rendering bought") and "same 17 images" in line
+    best = report[report["photo_only"] & (report["status"] == "ok")]["accuracy"].max()
+    assert line.endswith(f"The photo alone leaves {100 * (1 - best):.1f} points to a perfect score on these images: "
+                         "the most the fit could add here.")
     assert np.isfinite(report[["accuracy", "wilson_low", "wilson_high"]].to_numpy(float)).all()
     # each set is paired image by image with the best photo-only set: the split of the images only one of
     # them got right accounts for the whole difference in correct images
@@ -361,6 +364,7 @@ def test_relief_line_sets_the_fitted_set_against_the_true_relief_only_where_it_w
     assert relief_line(_report(structure_truth=1.0, auto_fitted=0.4), "auto_fitted") == ""  # no photo-only set
     empty = pd.DataFrame(columns=["feature_set", "status"])
     assert neither in report_markdown(empty, "gain", ["fitted"], "none", neither)
+    assert "\n\nThread scale: 3 finer.\n\n" in report_markdown(empty, "gain", ["fitted"], "none", neither, "Thread scale: 3 finer.")
     assert "Against the true relief" not in report_markdown(empty, "gain", ["fitted"], "none")
 
 

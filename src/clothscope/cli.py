@@ -86,6 +86,9 @@ def cmd_predict(args: argparse.Namespace) -> int:
             print(f"{photo}\tnot classified\t{result.reason}", flush=True)
         else:
             print(f"{photo}\t{result.predicted_class}\t{result.posterior:.3f}\t{result.physics_path}", flush=True)
+            if result.note:
+                log.info("%s: %s", photo, result.note)
+                print(f"clothscope: note: {photo}: {result.note}", file=sys.stderr, flush=True)
     return 0 if any(r.predicted_class for r in results) else 1
 
 

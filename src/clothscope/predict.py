@@ -50,6 +50,7 @@ class Prediction:
     posterior: float | None
     physics_path: str | None
     reason: str = ""
+    note: str = ""  # prepare's note on the thread scale (threads too fine or too coarse, no lattice), or ""
 
 
 def model_sources(model: VotingModel) -> list[str]:
@@ -146,6 +147,7 @@ def predict_photo(photo: str, image_id: str, model: VotingModel, physics_table: 
                            StructureSettings(**settings["features"]["structure"]))
     if record["status"] != "accepted":
         return Prediction(photo, image_id, None, None, None, record["reason"])
+    note = str((record.get("scale") or {}).get("note", ""))
     sources = model_sources(model)
     dirs = {"photo": work / "prepared"}
     if "fitted" in sources or render:
@@ -173,6 +175,6 @@ def predict_photo(photo: str, image_id: str, model: VotingModel, physics_table: 
     target = work / "physics.json"
     write_json(target, {"image_id": image_id, "photo": str(photo), "predicted_class": str(result["predicted_class"]),
                         "posteriors": posteriors, "model": model.metadata.get("arrays_sha256"),
-                        "fit": str(dirs["fitted"]) if "fitted" in dirs else None,
+                        "fit": str(dirs["fitted"]) if "fitted" in dirs else None, "prepare_note": note or None,
                         "physics": physics_for(posteriors, physics_table)})
-    return Prediction(photo, image_id, str(result["predicted_class"]), max(posteriors.values()), str(target))
+    return Prediction(photo, image_id, str(result["predicted_class"]), max(posteriors.values()), str(target), note=note)

@@ -47,6 +47,7 @@ rule feature_sets:
     input:
         **{source: feature_table(source) for source in report_sources()},
         **{f"{source}_tiles": tile_table(source) for source in report_sources()},
+        prepared=os.path.join(RESULTS, "reports", "prepared.tsv"),
     output:
         md=report(
             feature_set_outputs()[0],

@@ -29,6 +29,7 @@ from clothscope.features.structure import (
     WEAVE_COLUMNS,
 )
 from clothscope.features.table import FIT_COLUMNS
+from clothscope.prepare.rejections import thread_scale_line
 
 #: Column groups of a feature table. The fitted BRDF's columns hold what the fit left unexplained beside
 #: roughness and specular (docs/design.md, "What the fit cannot explain").
@@ -293,7 +294,14 @@ def inverse_rendering_gain(report: pd.DataFrame, fitted_set: str) -> str:
     verb = "bought" if gain > 0 else ("cost" if gain < 0 else "changed nothing:")
     return (f"Inverse rendering {verb} {abs(gain):.1f} points over the photo alone: {fitted_set} "
             f"{100 * float(fitted['accuracy'].iloc[0]):.1f}% against the best photo-only set, {best['feature_set']}, "
-            f"{100 * float(best['accuracy']):.1f}% (LOOCV, same {int(best['n'])} images){paired_clause(fitted.iloc[0])}.")
+            f"{100 * float(best['accuracy']):.1f}% (LOOCV, same {int(best['n'])} images){paired_clause(fitted.iloc[0])}. "
+            f"{headroom_clause(float(best['accuracy']))}")
+
+
+def headroom_clause(photo_accuracy: float) -> str:
+    """The most any set could add over the best photo-only set on the same images (a fraction in, points out)."""
+    return (f"The photo alone leaves {100.0 * (1.0 - photo_accuracy):.1f} points to a perfect score on these images: "
+            "the most the fit could add here.")
 
 
 def brdf_line(report: pd.DataFrame) -> str:
@@ -361,15 +369,17 @@ def _percent(value: float) -> str:
     return f"{100.0 * value:.1f}%" if math.isfinite(value) else "-"
 
 
-def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str], subspace: str, relief: str = "") -> str:
+def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str], subspace: str, relief: str = "",
+                    scale: str = "") -> str:
     """The Markdown of ``feature_sets.md`` (``relief``: :func:`relief_line`, after the gain line where not empty;
-    then :func:`brdf_line` where both its sets were scored)."""
+    ``scale``: :func:`~clothscope.prepare.rejections.thread_scale_line`, after it where not empty; then
+    :func:`brdf_line` where both its sets were scored)."""
     brdf = brdf_line(report)
     lines = ["# Feature sets side by side", "",
              f"LOOCV QDA (the classifier of record, Ledoit-Wolf shrinkage"
              f"{', in the discriminant subspace of each fold' if subspace == 'discriminant' else ''}) on the same labelled images, from the "
              f"sources {', '.join(sources)}. 95% Wilson intervals; chance is 1 / number of classes.", "",
-             gain_line, "", *([relief, ""] if relief else []), *([brdf, ""] if brdf else []),
+             gain_line, "", *([relief, ""] if relief else []), *([scale, ""] if scale else []), *([brdf, ""] if brdf else []),
              "The column 'against the best photo' pairs a set with the most accurate photo-only set on the same "
              "images: +a / -b counts the images only this set (only the photo's set) got right, and p is the exact "
              "McNemar test of that split (p >= 0.05: not significant at the 5% level on these images).", "",
@@ -390,20 +400,23 @@ def report_markdown(report: pd.DataFrame, gain_line: str, sources: list[str], su
 
 def feature_sets_job(table_paths: dict[str, str], reg: float | str, subspace: str, fitted_set: str,
                      md_path: str | os.PathLike[str], csv_path: str | os.PathLike[str], log: object = None,
-                     tile_paths: dict[str, str] | None = None, test_tiles: bool = False) -> pd.DataFrame:
+                     tile_paths: dict[str, str] | None = None, test_tiles: bool = False,
+                     prepared_path: str | os.PathLike[str] | None = None) -> pd.DataFrame:
     """The ``feature_sets`` rule: read each source's feature table (and tile table), compare, write Markdown and CSV
-    (``test_tiles``: :func:`compare_feature_sets`)."""
+    (``test_tiles``: :func:`compare_feature_sets`; ``prepared_path``: ``prepared.tsv``, whose thread scales the
+    Markdown sums up)."""
     tables = {source: pd.read_parquet(path) for source, path in table_paths.items()}
     tile_tables = {source: pd.read_parquet(path) for source, path in (tile_paths or {}).items()}
     report = compare_feature_sets(tables, reg, subspace, tile_tables, test_tiles=test_tiles)
     line = inverse_rendering_gain(report, fitted_set)
     write_text(Path(csv_path), report.to_csv(index=False, lineterminator="\n", float_format="%.6f"))
     relief = relief_line(report, fitted_set)
-    write_text(Path(md_path), report_markdown(report, line, list(tables), subspace, relief))
+    scale = thread_scale_line(pd.read_csv(prepared_path, sep="\t", dtype={"period_band_px": str})) if prepared_path else ""
+    write_text(Path(md_path), report_markdown(report, line, list(tables), subspace, relief, scale))
     if log is not None:
-        log.info("%s", line)
-        if relief:
-            log.info("%s", relief)
+        for text in (line, relief, scale):
+            if text:
+                log.info("%s", text)
     return report
 
 
