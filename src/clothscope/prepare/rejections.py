@@ -49,8 +49,8 @@ def thread_scale_line(table: pd.DataFrame) -> str:
 
     ``table`` is :func:`prepare_table`'s (or ``prepared.tsv`` read back). Threads
     finer than the band were so even at full native resolution (``prepare``
-    never magnifies by default), so the fit's texels are too coarse for their
-    lattice; ``""`` where no accepted photo has a measured period.
+    never magnifies by default); ``""`` where no accepted photo has a measured
+    period.
     """
     accepted = table[table["status"] == "accepted"]
     period = pd.to_numeric(accepted["working_period_px"], errors="coerce")
@@ -62,8 +62,8 @@ def thread_scale_line(table: pd.DataFrame) -> str:
     within, unmeasured = int(period.notna().sum()) - finer - coarser, int(period.isna().sum())
     return (f"Thread scale (prepare): of {len(accepted)} accepted photos, {within} show threads in the band the fit is "
             f"made for ({low:g}-{high:g} px at the working resolution), {finer} finer even at full native resolution "
-            f"({far} of them under {FAR_BELOW_PX:g} px, where the fit's relief responds less the finer they are: photograph closer), "
-            f"{coarser} coarser (few threads in view), and {unmeasured} no lattice the period could be read from.")
+            f"({far} of them under {FAR_BELOW_PX:g} px), {coarser} coarser, and {unmeasured} no lattice the period "
+            "could be read from.")
 
 
 def write_prepare_reports(prepared_dirs: Iterable[str | os.PathLike[str]], rejected_tsv: str, summary_tsv: str) -> tuple[int, int]:
