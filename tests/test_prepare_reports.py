@@ -48,3 +48,5 @@ def test_no_thread_scale_line_where_prepare_measured_no_period(tmp_path):
     framed = prepare_table([_prepared(tmp_path, "a", method="frame"), _prepared(tmp_path, "b", method="frame")])
     assert thread_scale_line(framed) == ""
     assert thread_scale_line(prepare_table([_prepared(tmp_path, "c", status="rejected")])) == ""
+    older = prepare_table([_prepared(tmp_path, "d", working=11.0)]).drop(columns=["working_period_px", "period_band_px"])
+    assert thread_scale_line(older) == ""  # a prepared.tsv written before the columns existed

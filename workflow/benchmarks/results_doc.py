@@ -642,6 +642,12 @@ def benchmark_reports(results: Path) -> list[BenchmarkReport]:
                         f"{py}/frame_candidate.py results/real/f/run --with-only --name frame_confirm_f; "
                         f"{py}/frame_candidate.py results/real/g/run --with-only --name frame_confirm_g (thirty-eighth "
                         "session; G made by real_photos.py --sets a b c d e f g --last-short and run with the defaults)"),
+        BenchmarkReport("The fitted relief against the photo alone, image by image, over eleven runs",
+                        ("bench/fit_vs_photo.md",),
+                        f"{py}/fit_vs_photo.py results results/holdout_1207/run results/microscope_1208/run "
+                        "results/microscope_1209/run " + " ".join(f"results/real/{s}/run" for s in "abcdefg")
+                        + " (thirty-ninth session; every run with the defaults, its reports/prepared.tsv remade by "
+                        "--forcerun rejection_report)"),
         BenchmarkReport("Each held-out image scored with its tiles, three fresh sets",
                         ("bench/held_out_tiles.md",),
                         f"{py}/held_out_tiles.py results/microscope_1156/run results/weaves_1157/run "

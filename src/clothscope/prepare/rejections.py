@@ -50,8 +50,10 @@ def thread_scale_line(table: pd.DataFrame) -> str:
     ``table`` is :func:`prepare_table`'s (or ``prepared.tsv`` read back). Threads
     finer than the band were so even at full native resolution (``prepare``
     never magnifies by default); ``""`` where no accepted photo has a measured
-    period.
+    period, or where ``table`` predates the period columns.
     """
+    if not {"working_period_px", "period_band_px"} <= set(table.columns):
+        return ""
     accepted = table[table["status"] == "accepted"]
     period = pd.to_numeric(accepted["working_period_px"], errors="coerce")
     bands = accepted.loc[period.notna(), "period_band_px"].astype(str).unique()
