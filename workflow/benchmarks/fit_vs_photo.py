@@ -5,11 +5,13 @@
 In each run folder the feature-set report's ``vote_fitted`` and ``vote_photo`` are scored by LOOCV as the report
 scores them (the run's tiles; test tiles as configured). The two average the same five QDAs, on the fitted relief or
 on the photo's luminance, so their pairing is fixed before any score, unlike the report's "best photo-only set",
-which is the best of several on the images scored. The classifier of record's LOOCV predictions are read from the
-run's ``reports/fitted/predictions.csv``. Per run, summed over the runs, and over the runs by the thread period
-``prepare`` read at the working resolution (``reports/prepared.tsv``): images right, the images only one side of a
-pair got right, and the exact McNemar p of that split (the runs' images taken as independent). Writes
-``results/bench/<name>.csv`` (one row per image) and ``.md``. Nothing is chosen here.
+which is the best of several on the images scored. The classifier of record's LOOCV predictions (``record``) are read
+from the run's ``reports/fitted/predictions.csv``, and the same classifier is scored on the photo's table alone
+(``record_photo``: what the workflow does with ``features.normal_source: photo``, which runs no fit). Per run, summed
+over the runs, by the thread period ``prepare`` read at the working resolution (``reports/prepared.tsv``) and by
+class: images right, and for each pair the images only one side got right with the exact McNemar p of that split
+(the runs' images taken as independent). Writes ``results/bench/<name>.csv`` (one row per image) and ``.md``.
+Nothing is chosen here.
 """
 from __future__ import annotations
 
@@ -17,13 +19,22 @@ import math
 from pathlib import Path
 
 import pandas as pd
-from harness import run_tables, runs_report, shown, validated_config
+from harness import record_loocv, run_tables, runs_report, shown, validated_config
 
-from clothscope.classify.feature_sets import FEATURE_SETS, common_images, mcnemar_p, score_feature_set
+from clothscope.classify.feature_sets import (
+    FEATURE_SETS,
+    classifier_candidates,
+    common_images,
+    joined_table,
+    joined_tiles,
+    mcnemar_p,
+    score_feature_set,
+)
+from clothscope.features.sources import STATUS_OK
 from clothscope.prepare.rejections import FAR_BELOW_PX
 
 #: The pairs compared, each ``(side, reference)``: names of per-image hit columns.
-PAIRS = (("vote_fitted", "vote_photo"), ("record", "vote_photo"))
+PAIRS = (("vote_fitted", "vote_photo"), ("record", "vote_photo"), ("record", "record_photo"))
 
 
 def scale_bands() -> dict[str, tuple[float, float]]:
@@ -34,14 +45,16 @@ def scale_bands() -> dict[str, tuple[float, float]]:
             f"{low:g}-{high:g} px": (low, high), f"{high:g} px and over": (high, math.inf)}
 
 
-def record_hits(run: Path) -> pd.Series:
-    """Which images the run's classifier of record got right in its LOOCV (boolean, by image id)."""
+def record_hits(run: Path) -> pd.DataFrame:
+    """The images of the run's classifier of record's LOOCV (by image id): ``fabric_class``, and ``record``, whether
+    it got the image right."""
     path = run / "reports" / "fitted" / "predictions.csv"
     if not path.is_file():
         raise SystemExit(f"{shown(path)}: no such file; run the workflow into {shown(run)} first")
     predictions = pd.read_csv(path, dtype={"image_id": str})
     predictions = predictions[predictions["split"] == "loocv"].set_index("image_id")
-    return predictions["predicted_class"] == predictions["true_class"]
+    return pd.DataFrame({"fabric_class": predictions["true_class"],
+                         "record": predictions["predicted_class"] == predictions["true_class"]})
 
 
 def working_periods(run: Path) -> pd.Series:
@@ -62,6 +75,18 @@ def scale_band(period: float, bands: dict[str, tuple[float, float]]) -> str:
     return next(name for name, (low, high) in bands.items() if low <= period < high)
 
 
+def photo_record_hits(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame], settings: dict) -> pd.Series:
+    """Which images the classifier of record as configured, trained on the photo's table alone (the workflow with
+    ``features.normal_source: photo``, no fit), gets right in its LOOCV (boolean, by image id)."""
+    photo = {"photo": tables["photo"]}
+    joined = joined_table(photo)
+    candidates = classifier_candidates(settings["feature_set"], "photo", joined.columns)
+    result = record_loocv(joined[joined["status"] == STATUS_OK], candidates,
+                          joined_tiles(photo, {s: t for s, t in tiles.items() if s == "photo"}), settings)
+    predictions = result.predictions.set_index("image_id")
+    return predictions["predicted_class"] == predictions["true_class"]
+
+
 def run_rows(run: Path) -> list[dict]:
     """One row per image of a run: whether each side got it right, and its working thread period and band."""
     settings = validated_config()["classify"]
@@ -75,11 +100,13 @@ def run_rows(run: Path) -> list[dict]:
         if right is None:
             raise SystemExit(f"{shown(run)}: {name} could not be scored: {row['reason']}")
         hits[name] = right
-    hits["record"] = record_hits(run)
-    frame = pd.DataFrame(hits).dropna().astype(bool)
+    hits["record_photo"] = photo_record_hits(tables, tiles, settings)
+    record = record_hits(run)
+    frame = pd.DataFrame(hits).join(record["record"], how="inner").dropna().astype(bool)
     periods, bands = working_periods(run).reindex(frame.index), scale_bands()
-    return [{"run": shown(run), "image_id": image, "working_period_px": float(periods[image]),
-             "scale_band": scale_band(float(periods[image]), bands), **frame.loc[image].to_dict()} for image in frame.index]
+    return [{"run": shown(run), "image_id": image, "fabric_class": record.at[image, "fabric_class"],
+             "working_period_px": float(periods[image]), "scale_band": scale_band(float(periods[image]), bands),
+             **frame.loc[image].to_dict()} for image in frame.index]
 
 
 def pair_cell(hits: pd.DataFrame, side: str, reference: str) -> str:
@@ -90,11 +117,12 @@ def pair_cell(hits: pd.DataFrame, side: str, reference: str) -> str:
 
 def count_lines(groups: list[tuple[str, pd.DataFrame]], heading: str) -> list[str]:
     """A Markdown table: per group, images, images right of each side, and each pair's split."""
-    lines = [f"| {heading} | images | vote_fitted | vote_photo | record | vote_fitted against vote_photo | "
-             "record against vote_photo |", "|---|---|---|---|---|---|---|"]
+    sides = ("vote_fitted", "vote_photo", "record", "record_photo")
+    lines = [f"| {heading} | images | {' | '.join(sides)} | {' | '.join(f'{a} against {b}' for a, b in PAIRS)} |",
+             "|---" * (2 + len(sides) + len(PAIRS)) + "|"]
     for name, hits in groups:
-        lines.append(f"| {name} | {len(hits)} | {int(hits['vote_fitted'].sum())} | {int(hits['vote_photo'].sum())} | "
-                     f"{int(hits['record'].sum())} | {pair_cell(hits, *PAIRS[0])} | {pair_cell(hits, *PAIRS[1])} |")
+        counts = " | ".join(str(int(hits[side].sum())) for side in sides)
+        lines.append(f"| {name} | {len(hits)} | {counts} | {' | '.join(pair_cell(hits, *pair) for pair in PAIRS)} |")
     return lines
 
 
@@ -105,11 +133,14 @@ def markdown(table: pd.DataFrame) -> str:
              if (table["scale_band"] == band).any()]
     lines = ["# The fitted relief against the photo alone, image by image", "",
              "LOOCV images right of `vote_fitted` (the five QDAs on the fitted relief), `vote_photo` (the same on the "
-             "photo's luminance) and the classifier of record. A pair's cell is +a / -b: the images only the first "
-             "got right, and only `vote_photo`; p is the exact McNemar test of that split.", "",
+             "photo's luminance), the classifier of record (`record`, fitted relief and photo) and the same classifier "
+             "on the photo alone (`record_photo`: `features.normal_source: photo`, no fit). A pair's cell is +a / -b: "
+             "the images only the first of the pair got right, and only the second; p is the exact McNemar test of "
+             "that split.", "",
              *count_lines([*runs, ("summed over the runs", table)], "run"), "",
              "By the thread period `prepare` read at the working resolution (`reports/prepared.tsv`), over the runs:", "",
-             *count_lines(bands, "working thread period")]
+             *count_lines(bands, "working thread period"), "", "By class, over the runs:", "",
+             *count_lines(list(table.groupby("fabric_class")), "class")]
     return "\n".join(lines) + "\n"
 
 
