@@ -464,12 +464,28 @@ def test_the_record_can_vote_and_its_model_for_new_photos_holds_every_set_that_v
     assert model.metadata["metadata"]["prune"] == 0.0
     summary = (tmp_path / "reports" / "summary.md").read_text()
     assert "Sets that voted, folds: " in summary and f"averages the posteriors of {len(model.members)} QDAs: `structure_brdf`" in summary
+    without = re.search(r"Without the fit \(the same classifier on the photo alone, .*\): (\d+)/17 against (\d+)/17 with it", summary)
+    assert without and int(without.group(2)) == out["correct"] and int(without.group(1)) > 12
     joined = joined_table({s: pd.read_parquet(p) for s, p in paths.items()})
     query = predict(model, joined[joined["image_id"] == "c5"])
     by_member = [predict(member, joined[joined["image_id"] == "c5"])[["p_a", "p_b", "p_c"]].to_numpy(float)
                  for member in model.members.values()]
     assert np.allclose(query[["p_a", "p_b", "p_c"]].to_numpy(float), np.mean(by_member, axis=0))
     assert query["predicted_class"].item() == "c"
+
+
+def test_the_without_fit_line_pairs_the_two_classifiers_on_the_images_both_scored():
+    from types import SimpleNamespace
+
+    from clothscope.classify.job import without_fit_line
+
+    def scored(ids: str, predicted: str) -> SimpleNamespace:
+        return SimpleNamespace(predictions=pd.DataFrame({"image_id": list(ids), "true_class": ["a"] * len(ids),
+                                                         "predicted_class": list(predicted)}))
+
+    line = without_fit_line(scored("pqrs", "aaba"), scored("pqrst", "abbba"))  # t: scored only without the fit
+    assert line.endswith("1/4 against 3/4 with it; image by image, only with the fit right on 2 and only without it on 0 "
+                         "(exact McNemar p = 0.5).")
 
 
 def test_a_pruned_record_leaves_out_fitted_sets_that_carry_no_class(tmp_path):

@@ -19,18 +19,10 @@ import math
 from pathlib import Path
 
 import pandas as pd
-from harness import record_loocv, run_tables, runs_report, shown, validated_config
+from harness import record_options, run_tables, runs_report, shown, validated_config
 
-from clothscope.classify.feature_sets import (
-    FEATURE_SETS,
-    classifier_candidates,
-    common_images,
-    joined_table,
-    joined_tiles,
-    mcnemar_p,
-    score_feature_set,
-)
-from clothscope.features.sources import STATUS_OK
+from clothscope.classify.feature_sets import FEATURE_SETS, common_images, mcnemar_p, score_feature_set
+from clothscope.classify.job import photo_only_loocv, right_by_image
 from clothscope.prepare.rejections import FAR_BELOW_PX
 
 #: The pairs compared, each ``(side, reference)``: names of per-image hit columns.
@@ -78,13 +70,8 @@ def scale_band(period: float, bands: dict[str, tuple[float, float]]) -> str:
 def photo_record_hits(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame], settings: dict) -> pd.Series:
     """Which images the classifier of record as configured, trained on the photo's table alone (the workflow with
     ``features.normal_source: photo``, no fit), gets right in its LOOCV (boolean, by image id)."""
-    photo = {"photo": tables["photo"]}
-    joined = joined_table(photo)
-    candidates = classifier_candidates(settings["feature_set"], "photo", joined.columns)
-    result = record_loocv(joined[joined["status"] == STATUS_OK], candidates,
-                          joined_tiles(photo, {s: t for s, t in tiles.items() if s == "photo"}), settings)
-    predictions = result.predictions.set_index("image_id")
-    return predictions["predicted_class"] == predictions["true_class"]
+    return right_by_image(photo_only_loocv(tables["photo"], tiles.get("photo"), settings["feature_set"], settings["reg"],
+                                           settings["subspace"], **record_options(settings)))
 
 
 def run_rows(run: Path) -> list[dict]:

@@ -91,11 +91,18 @@ def record_loocv(rows: pd.DataFrame, candidates: dict[str, list[str]], tiles: pd
     """The classifier of record's LOOCV over ``rows`` with the config's ``classify`` ``settings`` (shrinkage, subspace,
     choice, test tiles, whether it votes and its pruning); ``options`` go to :func:`clothscope.classify.loocv.loocv`
     (``score``, or ``choice``, ``test_tiles``, ``vote`` or ``prune`` to replace the config's)."""
+    return loocv(rows, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles,
+                 **record_options(settings, **options))
+
+
+def record_options(settings: dict, **options) -> dict:
+    """``options`` for :func:`clothscope.classify.loocv.loocv`, with the classifier of record's ``choice``, ``vote``,
+    ``prune`` and ``test_tiles`` taken from the config's ``classify`` ``settings`` where not given."""
     options.setdefault("choice", Choice.from_config(settings["choice"]))
     options.setdefault("vote", settings["feature_set"] == "vote")
     options.setdefault("prune", settings["prune"] if options["vote"] else 0.0)
     options.setdefault("test_tiles", settings["test_tiles"] == "mean")
-    return loocv(rows, [], settings["reg"], select_from=candidates, subspace=settings["subspace"], tiles=tiles, **options)
+    return options
 
 
 def write_sheet(images: list[str] | None, target: Path, source: Path = ROOT / "config" / "samples.tsv") -> Path:

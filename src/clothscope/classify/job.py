@@ -26,8 +26,9 @@ from clothscope.classify.feature_sets import (
     inverse_rendering_gain,
     joined_table,
     joined_tiles,
+    mcnemar_p,
 )
-from clothscope.classify.loocv import Choice, candidates_model, loocv
+from clothscope.classify.loocv import Choice, LoocvResult, candidates_model, loocv
 from clothscope.classify.model import VotingModel, predict, save_model, save_untrained
 from clothscope.classify.outputs import (
     ACCURACY_FILE,
@@ -70,8 +71,36 @@ def versus_photo_line(comparison_csv: str | os.PathLike[str] | None, source: str
     return inverse_rendering_gain(pd.read_csv(comparison_csv), headline_set(source))
 
 
+def photo_only_loocv(photo_table: pd.DataFrame, photo_tiles: pd.DataFrame | None, feature_set: str, reg: float | str,
+                     subspace: str, **options: Any) -> LoocvResult:
+    """LOOCV of the classifier ``feature_set`` on the photo's feature table alone: what the workflow scores with
+    ``features.normal_source: photo``, which runs no fit (``options``: :func:`clothscope.classify.loocv.loocv`'s
+    ``choice``, ``test_tiles``, ``vote`` and ``prune``)."""
+    photo = {"photo": photo_table}
+    joined = joined_table(photo)
+    tiles = joined_tiles(photo, None if photo_tiles is None else {"photo": photo_tiles})
+    return loocv(joined[joined["status"] == STATUS_OK], [], reg, select_from=classifier_candidates(feature_set, "photo", joined.columns),
+                 subspace=subspace, tiles=tiles, **options)
+
+
+def right_by_image(result: LoocvResult) -> pd.Series:
+    """Whether each image of a LOOCV was classified correctly (boolean, by image id)."""
+    predictions = result.predictions.set_index("image_id")
+    return predictions["predicted_class"] == predictions["true_class"]
+
+
+def without_fit_line(with_fit: LoocvResult, without_fit: LoocvResult) -> str:
+    """One line: the classifier against itself on the photo alone (:func:`photo_only_loocv`), on the images both scored."""
+    right_with, right_without = right_by_image(with_fit).align(right_by_image(without_fit), join="inner")
+    only_with, only_without = int((right_with & ~right_without).sum()), int((right_without & ~right_with).sum())
+    return (f"Without the fit (the same classifier on the photo alone, as `features.normal_source: photo` runs it): "
+            f"{int(right_without.sum())}/{len(right_with)} against {int(right_with.sum())}/{len(right_with)} with it; "
+            f"image by image, only with the fit right on {only_with} and only without it on {only_without} "
+            f"(exact McNemar p = {mcnemar_p(only_with, only_without):.2g}).")
+
+
 def write_summary(reports_dir: str | os.PathLike[str], title: str, feature_set: str, accuracy_line: str, versus: str) -> None:
-    """``summary.md``: the classifier's accuracy and what the fit bought over the photo alone, in three lines."""
+    """``summary.md``: the classifier's accuracy and ``versus``, what the fit bought over the photo alone."""
     write_text(Path(reports_dir) / SUMMARY_FILE, f"# {title}\n\nFeature set: `{feature_set}`. {accuracy_line}\n\n{versus}\n")
 
 
@@ -138,7 +167,8 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
     if photo_table_path and source != "photo":
         tables["photo"] = read_table(photo_table_path)
     table = joined_table(tables)
-    tiles = joined_tiles(tables, {s: read_table(path) for s, path in (tile_paths or {}).items()})
+    tile_tables = {s: read_table(path) for s, path in (tile_paths or {}).items()}
+    tiles = joined_tiles(tables, tile_tables)
     candidates = classifier_candidates(feature_set, source, table.columns)
     ok = table[table["status"] == STATUS_OK]
     labelled, queries = split_labelled(ok)
@@ -172,7 +202,15 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
             accuracy_line += f" Preferred set `{choice.prefer}`, left only where a sign test at alpha {choice.alpha:g} said so."
     if model is not None:
         accuracy_line += f" {model_line(model, voting)}"
-    write_summary(reports_dir, title, feature_set, accuracy_line, versus_photo_line(comparison_csv, source))
+    versus = versus_photo_line(comparison_csv, source)
+    if result is not None and source == "fitted" and "photo" in tables:
+        try:
+            without = photo_only_loocv(tables["photo"], tile_tables.get("photo"), feature_set, reg, subspace, choice=choice,
+                                       test_tiles=test_tiles, vote=voting, prune=prune)
+            versus += "\n\n" + without_fit_line(result, without)
+        except ValueError as err:  # the photo's rows alone too few to score: say so, the run goes on
+            versus += f"\n\nWithout the fit: not scored ({str(err).splitlines()[0]})."
+    write_summary(reports_dir, title, feature_set, accuracy_line, versus)
     if model is not None:
         save_model(model, model_dir, metadata={"normal_source": source, "feature_set": feature_set,
                                                 "chosen_set": "+".join(model.members),
