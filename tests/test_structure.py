@@ -488,6 +488,22 @@ def test_the_without_fit_line_pairs_the_two_classifiers_on_the_images_both_score
                          "(exact McNemar p = 0.5).")
 
 
+def test_the_photo_only_loocv_is_what_the_classify_rule_scores_for_the_photo_source(tmp_path):
+    """``photo_only_loocv`` (the fitted summary's "without the fit" line) scores what ``features.normal_source: photo``
+    scores: the same LOOCV predictions, image by image."""
+    from clothscope.classify.job import classify_job, photo_only_loocv
+
+    table = _table("photo", np.random.default_rng(6), False).assign(normal_source="photo", mitsuba_variant="llvm_ad_rgb",
+                                                                   config_hash="h")
+    table.to_parquet(tmp_path / "photo.parquet")
+    classify_job(tmp_path / "photo.parquet", "config/physics.yaml", "photo", "auto", tmp_path / "reports", tmp_path / "model",
+                 feature_set="vote", subspace="discriminant", prune=0.05)
+    rule = pd.read_csv(tmp_path / "reports" / "predictions.csv", dtype={"image_id": str})
+    rule = rule[rule["split"] == "loocv"].set_index("image_id")["predicted_class"].sort_index()
+    alone = photo_only_loocv(table, None, "vote", "auto", "discriminant", vote=True, prune=0.05)
+    assert alone.predictions.set_index("image_id")["predicted_class"].sort_index().equals(rule) and len(rule) == 18
+
+
 def test_a_pruned_record_leaves_out_fitted_sets_that_carry_no_class(tmp_path):
     """``classify.prune``: fits that carry no class lose the inner sign test, so neither the folds nor the model let
     the fitted maps' own sets vote, while the photo's sets do."""
