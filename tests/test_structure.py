@@ -478,10 +478,11 @@ def test_the_without_fit_line_pairs_the_two_classifiers_on_the_images_both_score
     from types import SimpleNamespace
 
     from clothscope.classify.job import without_fit_line
+    from clothscope.classify.loocv import LoocvResult
 
-    def scored(ids: str, predicted: str) -> SimpleNamespace:
-        return SimpleNamespace(predictions=pd.DataFrame({"image_id": list(ids), "true_class": ["a"] * len(ids),
-                                                         "predicted_class": list(predicted)}))
+    def scored(ids: str, predicted: str) -> pd.Series:
+        return LoocvResult.right_by_image(SimpleNamespace(predictions=pd.DataFrame(
+            {"image_id": list(ids), "true_class": ["a"] * len(ids), "predicted_class": list(predicted)})))
 
     line = without_fit_line(scored("pqrs", "aaba"), scored("pqrst", "abbba"))  # t: scored only without the fit
     assert line.endswith("1/4 against 3/4 with it; image by image, only with the fit right on 2 and only without it on 0 "

@@ -21,8 +21,8 @@ from pathlib import Path
 import pandas as pd
 from harness import record_options, run_tables, runs_report, shown, validated_config
 
-from clothscope.classify.feature_sets import FEATURE_SETS, common_images, mcnemar_p, score_feature_set
-from clothscope.classify.job import photo_only_loocv, right_by_image
+from clothscope.classify.feature_sets import FEATURE_SETS, common_images, discordant, mcnemar_p, score_feature_set
+from clothscope.classify.job import photo_only_loocv
 from clothscope.prepare.rejections import FAR_BELOW_PX
 
 #: The pairs compared, each ``(side, reference)``: names of per-image hit columns.
@@ -70,8 +70,8 @@ def scale_band(period: float, bands: dict[str, tuple[float, float]]) -> str:
 def photo_record_hits(tables: dict[str, pd.DataFrame], tiles: dict[str, pd.DataFrame], settings: dict) -> pd.Series:
     """Which images the classifier of record as configured, trained on the photo's table alone (the workflow with
     ``features.normal_source: photo``, no fit), gets right in its LOOCV (boolean, by image id)."""
-    return right_by_image(photo_only_loocv(tables["photo"], tiles.get("photo"), settings["feature_set"], settings["reg"],
-                                           settings["subspace"], **record_options(settings)))
+    return photo_only_loocv(tables["photo"], tiles.get("photo"), settings["feature_set"], settings["reg"],
+                            settings["subspace"], **record_options(settings)).right_by_image()
 
 
 def run_rows(run: Path) -> list[dict]:
@@ -98,7 +98,7 @@ def run_rows(run: Path) -> list[dict]:
 
 def pair_cell(hits: pd.DataFrame, side: str, reference: str) -> str:
     """``+a / -b, p = ...``: images only ``side`` got right (a), only ``reference`` (b), exact McNemar p."""
-    only_side, only_reference = int((hits[side] & ~hits[reference]).sum()), int((hits[reference] & ~hits[side]).sum())
+    only_side, only_reference = discordant(hits[side], hits[reference])
     return f"+{only_side} / -{only_reference}, p = {mcnemar_p(only_side, only_reference):.2g}"
 
 

@@ -208,8 +208,7 @@ def score_feature_set(feature_set: FeatureSet, tables: dict[str, pd.DataFrame], 
         return _unscored_row(feature_set, str(err)), None
     counts = result.selected_counts()
     chosen = f"{'votes' if voting else 'folds chose'}: {counts}" if counts else ""
-    predictions = result.predictions.set_index("image_id")
-    right = predictions["predicted_class"] == predictions["true_class"]
+    right = result.right_by_image()
     return {**_unscored_row(feature_set, chosen), "status": "ok",
             "n_features": len(result.feature_columns), "n": result.n, "correct": result.correct, "accuracy": result.accuracy,
             "wilson_low": result.wilson_low, "wilson_high": result.wilson_high, "chance": result.chance_uniform}, right
@@ -226,6 +225,12 @@ def mcnemar_p(only_first: int, only_second: int) -> float:
         raise ValueError(f"McNemar counts must be >= 0, got {only_first} and {only_second}")
     discordant = only_first + only_second
     return 1.0 if discordant == 0 else float(binomtest(only_first, discordant, 0.5).pvalue)
+
+
+def discordant(first: pd.Series, second: pd.Series) -> tuple[int, int]:
+    """Images only ``first`` got right, and only ``second`` (boolean Series by image id, on the images both hold)."""
+    first, second = first.align(second, join="inner")
+    return int((first & ~second).sum()), int((second & ~first).sum())
 
 
 def best_photo_only(report: pd.DataFrame) -> pd.Series | None:
@@ -250,8 +255,7 @@ def paired_with_best_photo(report: pd.DataFrame, hits: dict[str, pd.Series]) -> 
     for index, name in out["feature_set"].items():
         if name not in hits or bool(out.at[index, "photo_only"]):  # hits holds the scored sets only
             continue
-        this, base = hits[name].align(hits[reference], join="inner")
-        only_this, only_photo = int((this & ~base).sum()), int((base & ~this).sum())
+        only_this, only_photo = discordant(hits[name], hits[reference])
         out.loc[index, ["photo_reference", "only_this_right", "only_photo_right", "mcnemar_p"]] = [
             reference, only_this, only_photo, mcnemar_p(only_this, only_photo)]
     return out

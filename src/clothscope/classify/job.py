@@ -22,6 +22,7 @@ import pandas as pd
 from clothscope import __version__
 from clothscope.classify.feature_sets import (
     classifier_candidates,
+    discordant,
     headline_set,
     inverse_rendering_gain,
     joined_table,
@@ -83,16 +84,11 @@ def photo_only_loocv(photo_table: pd.DataFrame, photo_tiles: pd.DataFrame | None
                  subspace=subspace, tiles=tiles, **options)
 
 
-def right_by_image(result: LoocvResult) -> pd.Series:
-    """Whether each image of a LOOCV was classified correctly (boolean, by image id)."""
-    predictions = result.predictions.set_index("image_id")
-    return predictions["predicted_class"] == predictions["true_class"]
-
-
-def without_fit_line(with_fit: LoocvResult, without_fit: LoocvResult) -> str:
-    """One line: the classifier against itself on the photo alone (:func:`photo_only_loocv`), on the images both scored."""
-    right_with, right_without = right_by_image(with_fit).align(right_by_image(without_fit), join="inner")
-    only_with, only_without = int((right_with & ~right_without).sum()), int((right_without & ~right_with).sum())
+def without_fit_line(right_with: pd.Series, right_without: pd.Series) -> str:
+    """One line: the classifier against itself on the photo alone (:func:`photo_only_loocv`), on the images both scored
+    (each Series: :meth:`~clothscope.classify.loocv.LoocvResult.right_by_image`)."""
+    right_with, right_without = right_with.align(right_without, join="inner")
+    only_with, only_without = discordant(right_with, right_without)
     return (f"Without the fit (the same classifier on the photo alone, as `features.normal_source: photo` runs it): "
             f"{int(right_without.sum())}/{len(right_with)} against {int(right_with.sum())}/{len(right_with)} with it; "
             f"image by image, only with the fit right on {only_with} and only without it on {only_without} "
@@ -207,7 +203,7 @@ def classify_job(table_path: str | os.PathLike[str], physics_path: str | os.Path
         try:
             without = photo_only_loocv(tables["photo"], tile_tables.get("photo"), feature_set, reg, subspace, choice=choice,
                                        test_tiles=test_tiles, vote=voting, prune=prune)
-            versus += "\n\n" + without_fit_line(result, without)
+            versus += "\n\n" + without_fit_line(result.right_by_image(), without.right_by_image())
         except ValueError as err:  # the photo's rows alone too few to score: say so, the run goes on
             versus += f"\n\nWithout the fit: not scored ({str(err).splitlines()[0]})."
     write_summary(reports_dir, title, feature_set, accuracy_line, versus)

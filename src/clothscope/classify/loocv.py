@@ -73,6 +73,11 @@ class LoocvResult:
         """The sets the folds chose (or that voted), most often first: ``name count, ...``."""
         return ", ".join(f"{name} {count}" for name, count in sorted(self.selected.items(), key=lambda kv: -kv[1]))
 
+    def right_by_image(self) -> pd.Series:
+        """Whether each image was classified correctly (boolean, by image id)."""
+        predictions = self.predictions.set_index("image_id")
+        return predictions["predicted_class"] == predictions["true_class"]
+
 
 # --------------------------------------------------------------------------- helpers
 
